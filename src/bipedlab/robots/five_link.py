@@ -51,3 +51,14 @@ def standing_state() -> jnp.ndarray:
     x[1] = STANDING_HIP_HEIGHT
     x[3:7] = STANDING_REFERENCE
     return jnp.asarray(x)
+
+
+#: Relabelling permutation that swaps leg 1 and leg 2 (for q and for qd).
+LEG_SWAP = (0, 1, 2, 5, 6, 3, 4)
+
+
+def mjcf(**kwargs) -> str:
+    """MJCF of the five-link biped with exact inertias (see :func:`bipedlab.mechanics.mjcf.to_mjcf`)."""
+    from ..mechanics.mjcf import to_mjcf
+
+    return to_mjcf(model(), **kwargs)

@@ -12,6 +12,7 @@ from typing import Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
 from . import integrators
 
@@ -80,8 +81,32 @@ def rollout(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec,
 
 
 def batched_rollout(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec, params, x0,
-                    params_axis=None) -> RolloutResult:
+                    params_axis=None, shard: bool = True) -> RolloutResult:
     """Rollouts of a batch of initial states x0 (B, nx); ``params_axis=0`` also batches the
-    parameters (a pytree whose leaves have a leading batch axis)."""
-    run = lambda p, x: rollout(flow, policy, fell, spec, p, x)  # noqa: E731
-    return jax.vmap(run, in_axes=(params_axis, 0))(params, x0)
+    parameters (a pytree whose leaves have a leading batch axis).
+
+    With ``shard`` and several devices of the default backend (several GPUs, or CPU cores
+    exposed as devices by :func:`use_cpu_cores`), the batch is split across them when B is
+    a multiple of the device count."""
+    run = jax.vmap(lambda p, x: rollout(flow, policy, fell, spec, p, x), in_axes=(params_axis, 0))
+    devices = jax.devices()
+    if not shard or len(devices) == 1 or x0.shape[0] % len(devices):
+        return run(params, x0)
+    mesh = jax.sharding.Mesh(np.array(devices), ("batch",))
+    spec_b = jax.sharding.PartitionSpec("batch")
+    p_spec = jax.tree_util.tree_map(lambda _: spec_b if params_axis == 0 else jax.sharding.PartitionSpec(), params)
+    out_spec = RolloutResult(spec_b, spec_b, spec_b, spec_b if spec.record else None)
+    return jax.shard_map(run, mesh=mesh, in_specs=(p_spec, spec_b), out_specs=out_spec, check_vma=False)(params, x0)
+
+
+def use_cpu_cores(n: int | None = None) -> int:
+    """Expose n CPU cores (default: all) as separate JAX devices so batched rollouts run on
+    all of them. Must be called before JAX first touches a device; returns the count set."""
+    import os
+
+    n = n or os.cpu_count() or 1
+    try:
+        jax.config.update("jax_num_cpu_devices", n)
+    except Exception:  # backend already initialised, or an older JAX without the option
+        return len(jax.devices("cpu"))
+    return n

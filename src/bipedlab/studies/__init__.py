@@ -1,0 +1,1 @@
+"""One module per reproduced experiment: inputs -> a result record (and figures)."""
