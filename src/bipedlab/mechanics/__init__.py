@@ -21,7 +21,7 @@ from .dynamics import (
     total_mass,
 )
 from .impact import impact_map, relabel
-from .mjcf import to_mjcf
+from .mjcf import mjcf_coordinate_order, to_mjcf
 from .contact import PenaltyGround, anchor_ground, contact_forces, flat, penalty_force
 
 __all__ = [
@@ -29,6 +29,6 @@ __all__ = [
     "body_poses", "point_jacobian", "point_jdot_qd", "point_position", "point_velocity",
     "angular_momentum", "bias", "com_position", "com_velocity", "forward_dynamics",
     "gravity_forces", "kinetic_energy", "mass_matrix", "potential_energy", "total_mass",
-    "impact_map", "relabel", "to_mjcf",
+    "impact_map", "relabel", "to_mjcf", "mjcf_coordinate_order",
     "PenaltyGround", "anchor_ground", "contact_forces", "flat", "penalty_force",
 ]

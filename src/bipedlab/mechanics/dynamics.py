@@ -43,7 +43,8 @@ def _composites(model: Model, fr: Frames):
         p = model.parents[b]
         m1, m2 = mc[p], mc[b]
         m = m1 + m2
-        Cn = _scale(1.0 / m, _add(_scale(m1, C[p]), _scale(m2, C[b])))
+        safe = jnp.where(m > 0, m, 1.0)  # a massless subtree's COM is irrelevant (weight 0)
+        Cn = _scale(1.0 / safe, _add(_scale(m1, C[p]), _scale(m2, C[b])))
         d1, d2 = _sub(C[p], Cn), _sub(C[b], Cn)
         Ic[p] = Ic[p] + Ic[b] + m1 * _dot(d1, d1) + m2 * _dot(d2, d2)
         mc[p], C[p] = m, Cn

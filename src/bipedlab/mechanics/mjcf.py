@@ -4,8 +4,11 @@ The plane (x, y) of bipedlab maps to MuJoCo's (x, z); hinges turn about -y so th
 angles are counter-clockwise in that plane, as in bipedlab. Each body carries an exact
 ``<inertial>`` element: its mass, its COM, and its planar inertia as the principal moment
 about y (the moments about x and z are set equal to it; planar motion never excites them).
-The floating base is two slide joints (x, z) and a hinge, in bipedlab's coordinate order, so
-``qpos`` equals q. Rotors are not representable as MJCF bodies and are rejected.
+The floating base is two slide joints (x, z) and a hinge. MuJoCo numbers joints depth-first
+through the nested bodies, so ``qpos`` equals q when the bodies were declared depth-first
+(every subtree contiguous, as for the robots shipped here); otherwise
+:func:`mjcf_coordinate_order` gives the coordinate behind each qpos entry. Joint names are the
+coordinate names. Rotors are not representable as MJCF bodies and are rejected.
 """
 from __future__ import annotations
 
@@ -18,6 +21,25 @@ from .tree import PRISMATIC, Model
 
 def _f(v) -> str:
     return " ".join(repr(float(x)) for x in np.atleast_1d(v))
+
+
+def _depth_first(model: Model) -> list[int]:
+    order: list[int] = []
+
+    def visit(b: int) -> None:
+        order.append(b)
+        for c in range(model.nb):
+            if model.parents[c] == b:
+                visit(c)
+
+    visit(0)
+    return order
+
+
+def mjcf_coordinate_order(model: Model) -> tuple[int, ...]:
+    """Index into q of each of MuJoCo's qpos entries for the exported model
+    (``qpos = q[order]``); the identity when bodies were declared depth-first."""
+    return (0, 1, 2) + tuple(model.dof_of_body(b) for b in _depth_first(model)[1:])
 
 
 def to_mjcf(

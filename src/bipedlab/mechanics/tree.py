@@ -180,8 +180,9 @@ def build_model(
     if not bodies:
         raise ValueError("a model needs at least one body")
     names = [b.name for b in bodies]
-    if len(set(names)) != len(names):
-        raise ValueError("body names must be unique")
+    dup = sorted({n for n in names if names.count(n) > 1})
+    if dup:
+        raise ValueError(f"body names must be unique; repeated: {', '.join(dup)}")
     parents = []
     for k, b in enumerate(bodies):
         if k == 0:

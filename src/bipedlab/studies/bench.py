@@ -89,7 +89,7 @@ ANCHOR_CAPSULES = {
 #: and one with bipedlab's physics (point feet only touching the floor).
 MUJOCO_MODELS = {
     "anchor": dict(capsules=ANCHOR_CAPSULES),
-    "point_feet": dict(contact_points=("foot_1", "foot_2"), contact_radius=0.02),
+    "point_feet": dict(contact_points=("foot_1", "foot_2"), contact_radius=0.001),
 }
 
 
