@@ -52,7 +52,7 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--batch", type=_positive_int, nargs="+", default=[64, 256], metavar="N",
                    help="batch sizes for the batched bipedlab runs (64 is always run)")
     b.add_argument("--seconds", type=_positive_float, default=2.0, help="simulated seconds per rollout")
-    b.add_argument("--threads", type=_positive_int, default=None, help="MuJoCo threads (default: all cores)")
+    b.add_argument("--threads", type=_positive_int, default=None, help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
     b.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
     return p
 
@@ -71,7 +71,10 @@ def main(argv=None) -> int:
         parser.print_help()
         return 0
     if args.study == "bench":
+        from .sim import use_cpu_cores
         from .studies import bench
+
+        use_cpu_cores(args.threads)  # batched CPU rollouts use every core, as MuJoCo's do
 
         rec = bench.run(args.batch, args.seconds, args.threads, not args.no_mujoco, progress=bench._eprint)
         _emit(rec, args.json, bench.summary)

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from . import kinematics as kin
+from ._fusion import materialize
 from .tree import Model
 
 
@@ -80,27 +81,13 @@ def contact_dynamics(model: Model, ground: PenaltyGround, contacts: Sequence[int
 
     fr = kin.frames(model, q)
     vel = kin.velocities(model, fr, qd)
-    fr, vel = _materialize((fr, vel))
+    fr, vel = materialize((fr, vel))
     h = bias_entries(model, fr, vel)
     rhs = [-hi for hi in h]
     for k, i in enumerate(model.actuated):
         rhs[i] = rhs[i] + u[k]
     for j, val in contact_generalized_force(model, ground, fr, vel, contacts).items():
         rhs[j] = rhs[j] + val
-    H, rhs = _materialize((mass_matrix_entries(model, fr), rhs))
+    H, rhs = materialize((mass_matrix_entries(model, fr), rhs))
     return jnp.stack(ltdl_solve(H, rhs))
 
-
-def _materialize(tree):
-    """Compute every traced scalar in tree once, as one array, before later stages use them.
-
-    Without this XLA's fusion pass recomputes shared scalar subexpressions in every kernel
-    that consumes them."""
-    leaves, treedef = jax.tree_util.tree_flatten(tree, is_leaf=lambda v: v is None)
-    idx = [i for i, v in enumerate(leaves) if isinstance(v, jax.Array) and v.ndim == 0]
-    if not idx:
-        return tree
-    packed = jax.lax.optimization_barrier(jnp.stack([leaves[i] for i in idx]))
-    for k, i in enumerate(idx):
-        leaves[i] = packed[k]
-    return jax.tree_util.tree_unflatten(treedef, leaves)

@@ -14,6 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from ..mechanics._fusion import stage_barriers
 from . import integrators
 
 OK, FELL, NONFINITE = 0, 1, 2
@@ -88,7 +89,12 @@ def batched_rollout(flow: Callable, policy: Callable, fell: Callable, spec: Roll
     With ``shard`` and several devices of the default backend (several GPUs, or CPU cores
     exposed as devices by :func:`use_cpu_cores`), the batch is split across them when B is
     a multiple of the device count."""
-    run = jax.vmap(lambda p, x: rollout(flow, policy, fell, spec, p, x), in_axes=(params_axis, 0))
+    vrun = jax.vmap(lambda p, x: rollout(flow, policy, fell, spec, p, x), in_axes=(params_axis, 0))
+
+    def run(p, x):
+        with stage_barriers():
+            return vrun(p, x)
+
     devices = jax.devices()
     if not shard or len(devices) == 1 or x0.shape[0] % len(devices):
         return run(params, x0)
