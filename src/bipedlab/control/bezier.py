@@ -21,11 +21,18 @@ import jax.numpy as jnp
 import numpy as np
 
 
+def _powers(x, M: int):
+    """[1, x, ..., x^M] on a new last axis, by products (so autodiff is exact at x = 0)."""
+    out = [jnp.ones_like(x)]
+    for _ in range(M):
+        out.append(out[-1] * x)
+    return jnp.stack(out, -1)
+
+
 def _bernstein(M: int, s):
-    k = np.arange(M + 1)
-    binom = np.array([comb(M, int(i)) for i in k], float)
-    s = jnp.asarray(s)[..., None]
-    return binom * s**k * (1.0 - s) ** (M - k)
+    binom = np.array([comb(M, i) for i in range(M + 1)], float)
+    s = jnp.asarray(s, dtype=float)
+    return binom * _powers(s, M) * _powers(1.0 - s, M)[..., ::-1]
 
 
 def bezier(alpha, s):

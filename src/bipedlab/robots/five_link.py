@@ -62,3 +62,11 @@ def mjcf(**kwargs) -> str:
     from ..mechanics.mjcf import to_mjcf
 
     return to_mjcf(model(), **kwargs)
+
+
+def stance():
+    """The five-link biped in single support on foot_1, swing foot foot_2; stance coordinates
+    z = [torso, hip_st, knee_st, hip_sw, knee_sw, and their rates]."""
+    from ..mechanics.stance import stance_from_names
+
+    return stance_from_names(model(), "foot_1", "foot_2", LEG_SWAP)

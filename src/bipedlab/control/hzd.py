@@ -1,0 +1,139 @@
+"""Virtual constraints, input-output linearisation and the hybrid zero dynamics.
+
+Outputs ``y = H0 q - h_d(theta)`` on the stance coordinates q, with the phase
+``theta = c . q`` strictly increasing over a step and ``h_d`` one Bézier polynomial per output
+in ``s = (theta - theta_plus) / (theta_minus - theta_plus)``. With ``qdd = a + b u`` (from
+:func:`bipedlab.mechanics.stance.stance_affine`), the Lie derivatives come from forward-mode
+autodiff of the output function (any ``h(q)`` works, see :func:`lie_derivatives`):
+
+    ydd = Lf2h + LgLfh u,   u* = -LgLfh^-1 Lf2h                         (eq. 32)
+    u = u* - LgLfh^-1 (Kp / eps^2 y + Kd / eps yd)                         (eq. 42)
+
+On the zero dynamics manifold Z = {y = 0, yd = 0} the state is fixed by (theta, thetadot):
+``q = A^-1 [h_d(theta); theta]`` and ``qd = A^-1 [h_d'(theta); 1] thetadot`` with A = [H0; c].
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+
+from ..mechanics.stance import Stance, ground_reaction, stance_affine
+from . import bezier as bz
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class VirtualConstraints:
+    """H0 (m, n), c (n,), alpha (m, M+1) Bézier coefficients, theta_plus / theta_minus (rad)
+    the phase at the start and the end of the step."""
+
+    H0: jax.Array
+    c: jax.Array
+    alpha: jax.Array
+    theta_plus: jax.Array
+    theta_minus: jax.Array
+
+    @property
+    def order(self) -> int:
+        return self.alpha.shape[-1] - 1
+
+
+def phase(vc: VirtualConstraints, q):
+    return vc.c @ q
+
+
+def desired(vc: VirtualConstraints, theta):
+    """(h_d, dh_d/dtheta, d2h_d/dtheta2) at theta, each (m,)."""
+    w = vc.theta_minus - vc.theta_plus
+    s = (theta - vc.theta_plus) / w
+    return bz.bezier(vc.alpha, s), bz.bezier_d(vc.alpha, s) / w, bz.bezier_dd(vc.alpha, s) / (w * w)
+
+
+def output(vc: VirtualConstraints, q):
+    """y = H0 q - h_d(theta(q))."""
+    return vc.H0 @ q - desired(vc, phase(vc, q))[0]
+
+
+def lie_derivatives(h: Callable, q, qd, a, b):
+    """(y, yd, Lf2h, LgLfh) of an output y = h(q) for qdd = a + b u, by forward-mode autodiff."""
+    y, yd = jax.jvp(h, (q,), (qd,))
+    _, curv = jax.jvp(lambda q_: jax.jvp(h, (q_,), (qd,))[1], (q,), (qd,))
+    dh = jax.jacfwd(h)(q)
+    return y, yd, curv + dh @ a, dh @ b
+
+
+def _split(st: Stance, z):
+    return z[: st.n], z[st.n:]
+
+
+def output_state(vc: VirtualConstraints, st: Stance, z):
+    """(y, yd) at stance state z."""
+    q, qd = _split(st, z)
+    return jax.jvp(lambda q_: output(vc, q_), (q,), (qd,))
+
+
+def decoupling(vc: VirtualConstraints, st: Stance, z):
+    """(y, yd, Lf2h, LgLfh) at stance state z."""
+    q, qd = _split(st, z)
+    a, b, _, _ = stance_affine(st, z)
+    return lie_derivatives(lambda q_: output(vc, q_), q, qd, a, b)
+
+
+def u_star(vc: VirtualConstraints, st: Stance, z):
+    """The input that keeps y identically zero on Z (eq. 32)."""
+    _, _, L2, LgLf = decoupling(vc, st, z)
+    return -jnp.linalg.solve(LgLf, L2)
+
+
+def io_linearizing(vc: VirtualConstraints, st: Stance, z, eps=0.1, kp=1.0, kd=2.0):
+    """Input-output linearising control (eq. 42): ydd = -(kp/eps^2) y - (kd/eps) yd."""
+    y, yd, L2, LgLf = decoupling(vc, st, z)
+    return -jnp.linalg.solve(LgLf, L2 + (kp / eps**2) * y + (kd / eps) * yd)
+
+
+def pd_control(vc: VirtualConstraints, st: Stance, z, kp, kd, feedforward=None):
+    """u = u_ff - Kp y - Kd yd; with ``feedforward=None`` the exact u* is used as u_ff."""
+    y, yd = output_state(vc, st, z)
+    ff = u_star(vc, st, z) if feedforward is None else feedforward
+    return ff - kp * y - kd * yd
+
+
+def lift(vc: VirtualConstraints, theta, theta_dot):
+    """The state on Z with phase theta and rate theta_dot: (q, qd)."""
+    A = jnp.concatenate([vc.H0, vc.c[None, :]], 0)
+    hd, dhd, _ = desired(vc, theta)
+    q = jnp.linalg.solve(A, jnp.concatenate([hd, theta[None]]))
+    qd = jnp.linalg.solve(A, jnp.concatenate([dhd, jnp.ones(1)])) * theta_dot
+    return q, qd
+
+
+def zero_dynamics(vc: VirtualConstraints, st: Stance, theta, theta_dot):
+    """(theta_ddot, u*, ground reaction, z) on Z at (theta, theta_dot)."""
+    q, qd = lift(vc, theta, theta_dot)
+    z = jnp.concatenate([q, qd])
+    a, b, la, lb = stance_affine(st, z)
+    y, yd, L2, LgLf = lie_derivatives(lambda q_: output(vc, q_), q, qd, a, b)
+    u = -jnp.linalg.solve(LgLf, L2)
+    qdd = a + b @ u
+    return vc.c @ qdd, u, la + lb @ u, z
+
+
+def closed_loop_flow(vc: VirtualConstraints, st: Stance, control: Callable):
+    """zdot = f(z) + g(z) control(z) as a function of z."""
+
+    def f(z, _u=None):
+        a, b, _, _ = stance_affine(st, z)
+        u = control(z)
+        return jnp.concatenate([z[st.n:], a + b @ u])
+
+    return f
+
+
+__all__ = [
+    "VirtualConstraints", "phase", "desired", "output", "lie_derivatives", "output_state",
+    "decoupling", "u_star", "io_linearizing", "pd_control", "lift", "zero_dynamics",
+    "closed_loop_flow", "ground_reaction",
+]

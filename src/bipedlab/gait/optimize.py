@@ -1,0 +1,266 @@
+"""Fixed-point gait optimisation on the hybrid zero dynamics (Appendix B of the compliant-HZD
+paper, for a robot with one degree of underactuation).
+
+Decision variables: the pre-impact stance state ``(q-, qd-)`` and the free Bézier coefficients
+``alpha[:, 2:M-1]``. The remaining coefficients follow from the state, which makes the zero
+dynamics manifold invariant through the impact (hybrid invariance):
+
+    alpha_M = H0 q-,   alpha_{M-1} = alpha_M - (dtheta / M) H0 qd- / thetadot-,
+    (q+, qd+) = impact(q-, qd-),   alpha_0 = H0 q+,   alpha_1 = alpha_0 + (dtheta / M) H0 qd+ / thetadot+.
+
+On Z the state is fixed by (theta, thetadot). The zero dynamics are integrated in the phase,
+from theta+ to theta- with fixed RK4 steps on zeta = thetadot^2 / 2, together with time and the
+cost integrands; the step then ends exactly on the guard (the swing toe is on the ground at
+q-, an equality constraint), so no event location is needed, and periodicity is the single
+equation thetadot(theta-) = thetadot-.
+
+Costs: ``torque`` = integral of |u|^2 dt per step length (eq. 39); ``cmt`` = positive actuator
+work per weight and distance (eqs. 40-41). Constraints: periodicity, swing toe on the ground at
+the end and above it in between, positive normal force, |F_T / F_N| <= mu along the step and at
+the impact, the lifting foot leaves the ground, walking speed. Derivatives are exact (JAX
+forward mode) and the NLP is solved by SciPy's SLSQP.
+"""
+from __future__ import annotations
+
+import dataclasses
+import time
+from typing import Callable
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import scipy.optimize
+
+from ..control import hzd
+from ..mechanics.dynamics import total_mass
+from ..mechanics.stance import Stance, impact, swing_height, swing_position
+
+
+@dataclasses.dataclass(frozen=True)
+class GaitProblem:
+    """Static description of a gait design problem.
+
+    stance: the stance model; H0 (m, n) and c (n,) define outputs and phase; order: Bézier
+    order M; nodes: RK4 steps in the phase; speed: m/s; cost: 'torque' | 'cmt'; mu: friction
+    ratio bound; clearance_window: fraction of the step at each end where the swing-toe
+    height constraint is not imposed (the toe leaves and reaches the ground there)."""
+
+    stance: Stance
+    H0: np.ndarray
+    c: np.ndarray
+    order: int = 5
+    nodes: int = 60
+    speed: float = 0.8
+    cost: str = "torque"
+    mu: float = 0.6
+    clearance_window: float = 0.1
+
+    def __hash__(self):
+        return id(self)
+
+    def __eq__(self, other):
+        return self is other
+
+    @property
+    def n(self) -> int:
+        return self.stance.n
+
+    @property
+    def m(self) -> int:
+        return self.H0.shape[0]
+
+    @property
+    def n_free(self) -> int:
+        return self.m * (self.order - 3)
+
+    @property
+    def size(self) -> int:
+        return 2 * self.n + self.n_free
+
+
+def unpack(prob: GaitProblem, x):
+    n = prob.n
+    return x[: 2 * n], x[2 * n:].reshape(prob.m, prob.order - 3)
+
+
+def pack(z_minus, alpha_free) -> np.ndarray:
+    return np.concatenate([np.asarray(z_minus), np.asarray(alpha_free).ravel()])
+
+
+def constraints_from_state(prob: GaitProblem, z_minus, alpha_free):
+    """(VirtualConstraints, z_plus, impact data) implied by the decision variables."""
+    n, M = prob.n, prob.order
+    H0, c = jnp.asarray(prob.H0), jnp.asarray(prob.c)
+    qm, qdm = z_minus[:n], z_minus[n:]
+    zp, impulse, step, lift = impact(prob.stance, z_minus)
+    qp, qdp = zp[:n], zp[n:]
+    th_m, th_p = c @ qm, c @ qp
+    thd_m, thd_p = c @ qdm, c @ qdp
+    w = th_m - th_p
+    aM = H0 @ qm
+    aM1 = aM - (w / M) * (H0 @ qdm) / thd_m
+    a0 = H0 @ qp
+    a1 = a0 + (w / M) * (H0 @ qdp) / thd_p
+    alpha = jnp.concatenate([a0[:, None], a1[:, None], alpha_free, aM1[:, None], aM[:, None]], 1)
+    vc = hzd.VirtualConstraints(H0, c, alpha, th_p, th_m)
+    return vc, zp, dict(impulse=impulse, step=step, lift_velocity=lift)
+
+
+def integrate_zero_dynamics(prob: GaitProblem, vc, theta_dot_plus):
+    """RK4 in theta from theta+ to theta- of [zeta, t, int |u|^2 dt, int positive power dt].
+
+    Returns (final augmented state, nodes (N+1, 4), thetas (N+1,))."""
+    N = prob.nodes
+    act = jnp.asarray([i - 2 for i in prob.stance.model.actuated])
+    thetas = vc.theta_plus + (vc.theta_minus - vc.theta_plus) * jnp.arange(N + 1) / N
+    hstep = (vc.theta_minus - vc.theta_plus) / N
+
+    def g(theta, w):
+        thd = jnp.sqrt(jnp.maximum(2.0 * w[0], 1e-12))
+        thdd, u, _, z = hzd.zero_dynamics(vc, prob.stance, theta, thd)
+        power = u * z[prob.n:][act]
+        return jnp.stack([thdd, 1.0 / thd, (u @ u) / thd, jnp.sum(jnp.maximum(power, 0.0)) / thd])
+
+    def body(w, theta):
+        k1 = g(theta, w)
+        k2 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k1)
+        k3 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k2)
+        k4 = g(theta + hstep, w + hstep * k3)
+        wn = w + (hstep / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+        return wn, wn
+
+    w0 = jnp.stack([0.5 * theta_dot_plus**2, 0.0, 0.0, 0.0])
+    wf, ws = jax.lax.scan(body, w0, thetas[:-1])
+    return wf, jnp.concatenate([w0[None], ws], 0), thetas
+
+
+def evaluate(prob: GaitProblem, x):
+    """All quantities of a candidate gait: cost, constraint vectors and metrics (a dict)."""
+    z_minus, alpha_free = unpack(prob, x)
+    vc, zp, imp = constraints_from_state(prob, z_minus, alpha_free)
+    n = prob.n
+    thd_p = vc.c @ zp[n:]
+    thd_m = vc.c @ z_minus[n:]
+    wf, ws, thetas = integrate_zero_dynamics(prob, vc, thd_p)
+    zeta = ws[:, 0]
+    thd = jnp.sqrt(jnp.maximum(2.0 * zeta, 1e-12))
+    thdd, u, grf, zs = jax.vmap(lambda th, td: hzd.zero_dynamics(vc, prob.stance, th, td))(thetas, thd)
+    heights = jax.vmap(lambda z: swing_height(prob.stance, z))(zs)
+    step_length = swing_position(prob.stance, z_minus)[0]
+    T = wf[1]
+    mg = total_mass(prob.stance.model) * prob.stance.model.gravity
+    torque_cost = wf[2] / step_length
+    cmt = wf[3] / (mg * step_length)
+    cost = torque_cost if prob.cost == "torque" else cmt
+    N = prob.nodes
+    k0 = int(np.ceil(prob.clearance_window * N))
+    mu = prob.mu
+    eq = jnp.stack([
+        10.0 * swing_height(prob.stance, z_minus),
+        wf[0] - 0.5 * thd_m**2,
+        step_length / T - prob.speed,
+    ])
+    ineq = jnp.concatenate([
+        grf[:, 1] / mg,                                    # normal force positive
+        (mu * grf[:, 1] - jnp.abs(grf[:, 0])) / mg,        # inside the friction cone
+        10.0 * heights[k0: N + 1 - k0],                    # swing toe above the ground
+        zeta - 0.02,                                       # the phase keeps increasing
+        jnp.stack([
+            imp["lift_velocity"][1],                       # old stance foot lifts off
+            imp["impulse"][1],                             # ground pushes at impact
+            mu * imp["impulse"][1] - jnp.abs(imp["impulse"][0]),
+            vc.theta_minus - vc.theta_plus - 0.05,
+            step_length - 0.1,
+            thd_m,
+        ]),
+    ])
+    metrics = dict(
+        vc=vc, z_plus=zp, z_minus=z_minus, step_length=step_length, period=T,
+        speed=step_length / T, torque_cost=torque_cost, cmt=cmt, thetas=thetas,
+        theta_dot=thd, u=u, grf=grf, swing_heights=heights, states=zs, impulse=imp["impulse"],
+    )
+    return cost, eq, ineq, metrics
+
+
+def _scalar_problem(prob: GaitProblem, cost_scale: float):
+    def vec(x):
+        cost, eq, ineq, _ = evaluate(prob, x)
+        return jnp.concatenate([(cost / cost_scale)[None], eq, ineq])
+
+    f = jax.jit(vec)
+    jf = jax.jit(jax.jacfwd(vec))
+    return f, jf
+
+
+@dataclasses.dataclass
+class OptimizeResult:
+    x: np.ndarray
+    success: bool
+    message: str
+    iterations: int
+    warm_s: float
+    cold_s: float
+    cost: float
+    max_eq_violation: float
+    min_ineq: float
+
+
+def solve(prob: GaitProblem, x0, tol: float = 1e-10, maxiter: int = 300, warm_start_runs: int = 1) -> OptimizeResult:
+    """Solve with SLSQP. ``cold_s`` includes compilation; ``warm_s`` re-solves from x0 with
+    the compiled functions (what a sweep or a re-design costs)."""
+    x0 = np.asarray(x0, float)
+    t0 = time.perf_counter()
+    cost0 = float(evaluate(prob, jnp.asarray(x0))[0])
+    f, jf = _scalar_problem(prob, max(abs(cost0), 1e-9))
+    ne = 3
+
+    def run():
+        cache = {}
+
+        def vals(x):
+            key = x.tobytes()
+            if key not in cache:
+                cache.clear()
+                cache[key] = (np.asarray(f(jnp.asarray(x))), np.asarray(jf(jnp.asarray(x))))
+            return cache[key]
+
+        cons = [
+            dict(type="eq", fun=lambda x: vals(x)[0][1:1 + ne], jac=lambda x: vals(x)[1][1:1 + ne]),
+            dict(type="ineq", fun=lambda x: vals(x)[0][1 + ne:], jac=lambda x: vals(x)[1][1 + ne:]),
+        ]
+        return scipy.optimize.minimize(
+            lambda x: vals(x)[0][0], x0, jac=lambda x: vals(x)[1][0], method="SLSQP",
+            constraints=cons, options=dict(maxiter=maxiter, ftol=tol),
+        )
+
+    res = run()
+    cold = time.perf_counter() - t0
+    warm = float("inf")
+    for _ in range(warm_start_runs):
+        t1 = time.perf_counter()
+        res = run()
+        warm = min(warm, time.perf_counter() - t1)
+    v = np.asarray(f(jnp.asarray(res.x)))
+    return OptimizeResult(
+        x=res.x, success=bool(res.success), message=str(res.message), iterations=int(res.nit),
+        warm_s=warm, cold_s=cold, cost=float(v[0] * max(abs(cost0), 1e-9)),
+        max_eq_violation=float(np.max(np.abs(v[1:1 + ne]))), min_ineq=float(np.min(v[1 + ne:])),
+    )
+
+
+def initial_guess(prob: GaitProblem, z_minus) -> np.ndarray:
+    """Decision vector from a pre-impact state, with the free Bézier coefficients placed on
+    the straight line between the derived end coefficients."""
+    z_minus = jnp.asarray(z_minus)
+    M = prob.order
+    dummy = jnp.zeros((prob.m, M - 3))
+    vc, _, _ = constraints_from_state(prob, z_minus, dummy)
+    a1, aM1 = vc.alpha[:, 1], vc.alpha[:, M - 1]
+    frac = jnp.arange(2, M - 1) / (M - 1.0)
+    free = a1[:, None] + (aM1 - a1)[:, None] * ((jnp.arange(2, M - 1) - 1) / (M - 2.0))[None, :]
+    del frac
+    return pack(z_minus, free)
+
+
+__all__ = ["GaitProblem", "evaluate", "solve", "initial_guess", "pack", "unpack",
+           "constraints_from_state", "integrate_zero_dynamics", "OptimizeResult"]
