@@ -78,6 +78,10 @@ class GaitProblem:
         return 2 * self.n + self.n_free
 
 
+#: traced once, shared by every call site (RK4 stages, node samples, derivatives)
+_zero_dynamics = jax.jit(hzd.zero_dynamics)
+
+
 def unpack(prob: GaitProblem, x):
     n = prob.n
     return x[: 2 * n], x[2 * n:].reshape(prob.m, prob.order - 3)
@@ -117,7 +121,7 @@ def integrate_zero_dynamics(prob: GaitProblem, vc, theta_dot_plus):
 
     def g(theta, w):
         thd = jnp.sqrt(jnp.maximum(2.0 * w[0], 1e-12))
-        thdd, u, _, z = hzd.zero_dynamics(vc, prob.stance, theta, thd)
+        thdd, u, _, z = _zero_dynamics(vc, prob.stance, theta, thd)
         power = u * z[prob.n:][act]
         return jnp.stack([thdd, 1.0 / thd, (u @ u) / thd, jnp.sum(jnp.maximum(power, 0.0)) / thd])
 
@@ -144,7 +148,7 @@ def evaluate(prob: GaitProblem, x):
     wf, ws, thetas = integrate_zero_dynamics(prob, vc, thd_p)
     zeta = ws[:, 0]
     thd = jnp.sqrt(jnp.maximum(2.0 * zeta, 1e-12))
-    thdd, u, grf, zs = jax.vmap(lambda th, td: hzd.zero_dynamics(vc, prob.stance, th, td))(thetas, thd)
+    thdd, u, grf, zs = jax.vmap(lambda th, td: _zero_dynamics(vc, prob.stance, th, td))(thetas, thd)
     heights = jax.vmap(lambda z: swing_height(prob.stance, z))(zs)
     step_length = swing_position(prob.stance, z_minus)[0]
     T = wf[1]
@@ -210,7 +214,7 @@ def solve(prob: GaitProblem, x0, tol: float = 1e-10, maxiter: int = 300, warm_st
     the compiled functions (what a sweep or a re-design costs)."""
     x0 = np.asarray(x0, float)
     t0 = time.perf_counter()
-    cost0 = float(evaluate(prob, jnp.asarray(x0))[0])
+    cost0 = float(jax.jit(lambda x: evaluate(prob, x)[0])(jnp.asarray(x0)))
     f, jf = _scalar_problem(prob, max(abs(cost0), 1e-9))
     ne = 3
 

@@ -1,0 +1,157 @@
+"""Closed-loop walking on the stance model: the step-to-step map, multi-step walks, and the
+Poincaré analysis of both the full closed loop and the restricted (zero-dynamics) map.
+
+The Poincaré section is the impact surface (swing toe on the ground): ``P(z-)`` applies the
+impact and relabelling, then flows under the controller until the next touchdown, located
+exactly (:mod:`bipedlab.sim.hybrid`). Its Jacobian comes from forward-mode autodiff through
+the hybrid flow, event-time sensitivity included. P maps a neighbourhood of the section into
+the section, so the Jacobian has the restricted map's eigenvalues plus one zero. The restricted
+map ``rho(thetadot-)`` lives on the zero dynamics (one degree of underactuation: one
+eigenvalue).
+"""
+from __future__ import annotations
+
+import dataclasses
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..control import hzd
+from ..mechanics.stance import Stance, embed, impact, stance_affine, swing_height, swing_position
+from ..sim.hybrid import flow_to_event
+from ..sim.rollout import OK
+
+
+@dataclasses.dataclass(frozen=True)
+class Controller:
+    """kind: 'iolin' (eq. 42) or 'pd' (u* feedforward + PD on y); eps, kp, kd as in eq. 42
+    for 'iolin'; for 'pd', u = u* - kp y - kd yd with kp N m/rad, kd N m s/rad."""
+
+    kind: str = "iolin"
+    eps: float = 0.1
+    kp: float = 1.0
+    kd: float = 2.0
+
+
+@jax.jit
+def _iolin(vc, st, z, eps, kp, kd):
+    return hzd.io_linearizing(vc, st, z, eps, kp, kd)
+
+
+@jax.jit
+def _pd(vc, st, z, kp, kd):
+    return hzd.pd_control(vc, st, z, kp, kd)
+
+
+@jax.jit
+def _closed_loop(vc, st, z, u):
+    a, b, _, _ = stance_affine(st, z)
+    return jnp.concatenate([z[st.n:], a + b @ u])
+
+
+@jax.jit
+def _integrand(vc, st, z, u):
+    y, _ = hzd.output_state(vc, st, z)
+    act = jnp.asarray([i - 2 for i in st.model.actuated])
+    return jnp.stack([y @ y, u @ u, jnp.sum(jnp.maximum(u * z[st.n:][act], 0.0))])
+
+
+_swing_height = jax.jit(swing_height)
+
+
+def control_law(vc: hzd.VirtualConstraints, st: Stance, ctrl: Controller):
+    """u(z) of the chosen controller. The dynamics pieces are module-level jits taking the
+    gait and model as arguments: traced once, reused at every call site in the loops."""
+    if ctrl.kind == "iolin":
+        return lambda z: _iolin(vc, st, z, ctrl.eps, ctrl.kp, ctrl.kd)
+    if ctrl.kind == "pd":
+        return lambda z: _pd(vc, st, z, ctrl.kp, ctrl.kd)
+    raise ValueError(f"unknown controller {ctrl.kind!r}; choose 'iolin' or 'pd'")
+
+
+class Step(NamedTuple):
+    z_minus: jax.Array       # state at the next touchdown
+    z_plus: jax.Array        # state after the impact that started the step
+    duration: jax.Array      # s
+    step_length: jax.Array   # m
+    y_sq: jax.Array          # integral of |y|^2 dt
+    u_sq: jax.Array          # integral of |u|^2 dt
+    positive_work: jax.Array  # J
+    status: jax.Array
+
+
+def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: float = 2.0,
+         min_height: float = 0.0) -> Step:
+    """One step from a pre-impact state: impact, relabel, closed-loop flow to the next touchdown."""
+    zp, _, _, _ = impact(st, z_minus)
+    u_of = control_law(vc, st, ctrl)
+    n = st.n
+    mid = vc.theta_plus + 0.5 * (vc.theta_minus - vc.theta_plus)
+
+    def f(z):
+        return _closed_loop(vc, st, z, u_of(z))
+
+    def armed(z):
+        return vc.c @ z[:n] > mid
+
+    def integrand(z):
+        return _integrand(vc, st, z, u_of(z))
+
+    def fell(z):
+        q, _ = embed(st, z)
+        return (q[1] < min_height) | (vc.c @ z[n:] <= 0.0)
+
+    r = flow_to_event(f, lambda z: _swing_height(st, z), armed, zp, h, max_time, integrand, fell)
+    return Step(r.z, zp, r.t, swing_position(st, r.z)[0], r.integrals[0], r.integrals[1],
+                r.integrals[2], r.status)
+
+
+def walk(vc, st: Stance, ctrl: Controller, z_minus, steps: int, h: float = 1e-3,
+         max_time: float = 2.0, min_height: float = 0.0) -> Step:
+    """``steps`` consecutive steps (a Step of stacked arrays); after a failure the state is
+    frozen and later steps carry the failing status."""
+
+    def body(carry, _):
+        z, status = carry
+        s = step(vc, st, ctrl, z, h, max_time, min_height)
+        status = jnp.where(status == OK, s.status, status)
+        z = jnp.where(status == OK, s.z_minus, z)
+        return (z, status), s._replace(status=status)
+
+    _, out = jax.lax.scan(body, (jnp.asarray(z_minus), jnp.asarray(OK)), None, length=steps)
+    return out
+
+
+def poincare_jacobian(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3) -> jax.Array:
+    """d P / d z- at z- by forward-mode autodiff through the hybrid flow."""
+    return jax.jacfwd(lambda z: step(vc, st, ctrl, z, h).z_minus)(z_minus)
+
+
+def poincare_jacobian_fd(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3,
+                         delta: float = 1e-6) -> np.ndarray:
+    """Central finite differences of the same map (the check on the autodiff Jacobian)."""
+    P = jax.jit(lambda z: step(vc, st, ctrl, z, h).z_minus)
+    z = np.asarray(z_minus)
+    cols = []
+    for i in range(z.size):
+        e = np.zeros_like(z)
+        e[i] = delta
+        cols.append((np.asarray(P(z + e)) - np.asarray(P(z - e))) / (2 * delta))
+    return np.stack(cols, 1)
+
+
+def restricted_map(vc, st: Stance, theta_dot_minus, nodes: int = 60):
+    """rho: pre-impact phase rate -> next pre-impact phase rate, on the zero dynamics."""
+    from .optimize import GaitProblem, integrate_zero_dynamics
+
+    q, qd = hzd.lift(vc, vc.theta_minus, theta_dot_minus)
+    zp, _, _, _ = impact(st, jnp.concatenate([q, qd]))
+    prob = GaitProblem(st, np.asarray(vc.H0), np.asarray(vc.c), order=vc.order, nodes=nodes)
+    wf, _, _ = integrate_zero_dynamics(prob, vc, vc.c @ zp[st.n:])
+    return jnp.sqrt(jnp.maximum(2.0 * wf[0], 0.0))
+
+
+def restricted_eigenvalue(vc, st: Stance, theta_dot_minus, nodes: int = 60) -> float:
+    return float(jax.jacfwd(lambda t: restricted_map(vc, st, t, nodes))(jnp.asarray(theta_dot_minus)))
