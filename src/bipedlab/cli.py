@@ -13,6 +13,8 @@ import sys
 
 STUDIES = {
     "bench": "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
+    "optimize": "design a periodic HZD walking gait by optimisation (five-link)",
+    "walk": "closed-loop HZD walking from a designed gait (five-link)",
 }
 
 
@@ -42,6 +44,34 @@ def _positive_float(text: str) -> float:
     return v
 
 
+def _nonnegative_float(text: str) -> float:
+    try:
+        v = float(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}") from None
+    if not (v >= 0 and math.isfinite(v)):
+        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}")
+    return v
+
+
+def _progress(msg: str) -> None:
+    print(f"[bipedlab] {msg}", file=sys.stderr, flush=True)
+
+
+def _enable_compile_cache() -> None:
+    """Keep compiled programs between runs (first runs compile; later ones start fast)."""
+    import os
+
+    import jax
+
+    path = os.environ.get("BIPEDLAB_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab", "xla")
+    try:
+        os.makedirs(path, exist_ok=True)
+        jax.config.update("jax_compilation_cache_dir", path)
+    except OSError:
+        pass
+
+
 def build_parser() -> argparse.ArgumentParser:
     epilog = "studies:\n" + "\n".join(f"  {k:<10} {v}" for k, v in STUDIES.items())
     p = _Parser(prog="bipedlab", description="Planar bipedal robots: models, controllers, batched simulation.",
@@ -54,6 +84,27 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--seconds", type=_positive_float, default=2.0, help="simulated seconds per rollout")
     b.add_argument("--threads", type=_positive_int, default=None, help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
     b.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
+
+    o = sub.add_parser("optimize", help=STUDIES["optimize"], description=STUDIES["optimize"])
+    o.add_argument("robot", choices=["five-link"])
+    o.add_argument("--speed", type=_positive_float, default=0.8, help="walking speed, m/s")
+    o.add_argument("--cost", choices=["torque", "cmt"], default="torque",
+                   help="integral of squared torque per step length, or mechanical cost of transport")
+    o.add_argument("--controller", choices=["iolin", "pd"], default="iolin", help="controller for the Poincaré analysis")
+    o.add_argument("--save", metavar="FILE", help="write the gait to FILE (for walk --gait FILE)")
+    o.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    o.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+    w = sub.add_parser("walk", help=STUDIES["walk"], description=STUDIES["walk"])
+    w.add_argument("robot", choices=["five-link"])
+    w.add_argument("--steps", type=_positive_int, default=50, help="number of steps")
+    w.add_argument("--perturb", type=_nonnegative_float, default=0.0,
+                   help="relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
+    w.add_argument("--controller", choices=["iolin", "pd"], default="iolin")
+    w.add_argument("--gait", metavar="FILE", help="a gait file from optimize --save (default: the shipped 0.8 m/s gait)")
+    w.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
+    w.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    w.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
     return p
 
 
@@ -78,6 +129,20 @@ def main(argv=None) -> int:
 
         rec = bench.run(args.batch, args.seconds, args.threads, not args.no_mujoco, progress=bench._eprint)
         _emit(rec, args.json, bench.summary)
+        return 0
+    _enable_compile_cache()
+    from .studies import hzd_five_link as hz
+
+    if args.study == "optimize":
+        rec = hz.optimize(args.speed, args.cost, args.controller, save=args.save, out=args.out, progress=_progress)
+        _emit(rec, args.json, hz.summary_optimize)
+    elif args.study == "walk":
+        try:
+            hz.load_gait(args.gait)
+        except ValueError as e:
+            parser.error(str(e))
+        rec = hz.walk(args.steps, args.perturb, args.controller, args.gait, args.seed, out=args.out, progress=_progress)
+        _emit(rec, args.json, hz.summary_walk)
     return 0
 
 

@@ -70,3 +70,25 @@ def stance():
     from ..mechanics.stance import stance_from_names
 
     return stance_from_names(model(), "foot_1", "foot_2", LEG_SWAP)
+
+
+def hzd_outputs():
+    """(H0, c) for walking: the four joint angles are controlled, and the phase is
+    theta = -(torso + hip_st + knee_st / 2), the angle of the stance leg's hip-to-toe line
+    behind the vertical (equal thigh and shin lengths), which grows over a forward step."""
+    H0 = np.eye(5)[1:]
+    c = np.array([-1.0, -1.0, -0.5, 0.0, 0.0])
+    return H0, c
+
+
+def gait_guess(speed: float = 0.8) -> np.ndarray:
+    """A pre-impact stance state to start gait optimisation from: symmetric legs 0.5 m apart,
+    knees bent 0.1 rad forward, torso leaning 0.05 rad forward, the stance leg rotating at
+    2 speed rad/s about the toe."""
+    w = 2.0 * speed
+    return np.array([-0.05, -0.218, -0.1, 0.418, -0.1, 0.0, -w, 0.0, 0.75 * w, 0.0])
+
+
+#: Initial guess of the free Bézier coefficients' swing-knee row: flexed in mid-swing so the
+#: swing foot clears the ground.
+SWING_KNEE_GUESS = -0.6

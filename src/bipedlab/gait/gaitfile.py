@@ -1,0 +1,70 @@
+"""Gait files: a designed periodic gait as JSON (virtual constraints + fixed point + figures).
+
+Fields: ``format`` ("bipedlab-gait/1"), ``robot``, ``H0`` (m x n), ``c`` (n), ``alpha``
+(m x (M+1)), ``theta_plus`` and ``theta_minus`` (rad), ``z_minus`` (the pre-impact fixed point,
+stance coordinates and rates), and free-form ``design`` figures (speed, cost, ...).
+"""
+from __future__ import annotations
+
+import json
+from importlib import resources
+from pathlib import Path
+
+import jax.numpy as jnp
+import numpy as np
+
+from ..control.hzd import VirtualConstraints
+
+FORMAT = "bipedlab-gait/1"
+
+
+def to_dict(robot: str, vc: VirtualConstraints, z_minus, design: dict) -> dict:
+    return dict(
+        format=FORMAT, robot=robot,
+        H0=np.asarray(vc.H0).tolist(), c=np.asarray(vc.c).tolist(), alpha=np.asarray(vc.alpha).tolist(),
+        theta_plus=float(vc.theta_plus), theta_minus=float(vc.theta_minus),
+        z_minus=np.asarray(z_minus).tolist(), design=design,
+    )
+
+
+def save(path, robot: str, vc: VirtualConstraints, z_minus, design: dict) -> None:
+    Path(path).write_text(json.dumps(to_dict(robot, vc, z_minus, design), indent=1))
+
+
+def from_dict(d: dict, source: str = "gait") -> tuple[VirtualConstraints, jnp.ndarray, dict]:
+    """(virtual constraints, pre-impact fixed point, the whole record); ValueError names the
+    source and the problem."""
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise ValueError(f"{source}: not a bipedlab gait file (expected format {FORMAT!r})")
+    try:
+        H0 = np.asarray(d["H0"], float)
+        c = np.asarray(d["c"], float)
+        alpha = np.asarray(d["alpha"], float)
+        z = np.asarray(d["z_minus"], float)
+        tp, tm = float(d["theta_plus"]), float(d["theta_minus"])
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{source}: missing or malformed field ({e})") from None
+    n = c.size
+    if H0.ndim != 2 or H0.shape[1] != n or alpha.ndim != 2 or alpha.shape[0] != H0.shape[0] or z.size != 2 * n:
+        raise ValueError(f"{source}: inconsistent sizes (H0 {H0.shape}, c {c.shape}, alpha {alpha.shape}, z_minus {z.shape})")
+    if not (np.all(np.isfinite(alpha)) and np.all(np.isfinite(z)) and tm > tp):
+        raise ValueError(f"{source}: non-finite values or theta_minus <= theta_plus")
+    vc = VirtualConstraints(jnp.asarray(H0), jnp.asarray(c), jnp.asarray(alpha), jnp.asarray(tp), jnp.asarray(tm))
+    return vc, jnp.asarray(z), d
+
+
+def load(path) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
+    p = Path(path)
+    try:
+        d = json.loads(p.read_text())
+    except OSError as e:
+        raise ValueError(f"{path}: cannot read ({e.strerror})") from None
+    except json.JSONDecodeError as e:
+        raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno})") from None
+    return from_dict(d, str(path))
+
+
+def shipped(name: str):
+    """A gait shipped with the package, e.g. ``shipped('five_link_0.8')``."""
+    text = resources.files("bipedlab").joinpath("data", f"{name}.json").read_text()
+    return from_dict(json.loads(text), f"bipedlab/data/{name}.json")

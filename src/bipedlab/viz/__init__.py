@@ -1,0 +1,1 @@
+"""Plots (matplotlib, written to files; no display needed)."""
