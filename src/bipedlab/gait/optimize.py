@@ -113,7 +113,8 @@ def constraints_from_state(prob: GaitProblem, z_minus, alpha_free):
 def integrate_zero_dynamics(prob: GaitProblem, vc, theta_dot_plus):
     """RK4 in theta from theta+ to theta- of [zeta, t, int |u|^2 dt, int positive power dt].
 
-    Returns (final augmented state, nodes (N+1, 4), thetas (N+1,))."""
+    Returns (final augmented state, nodes (N+1, 4), thetas (N+1,), samples) where samples =
+    (u*, ground reaction, stance state) at the N+1 nodes, taken from the RK4 first stages."""
     N = prob.nodes
     act = jnp.asarray([i - 2 for i in prob.stance.model.actuated])
     thetas = vc.theta_plus + (vc.theta_minus - vc.theta_plus) * jnp.arange(N + 1) / N
@@ -121,21 +122,24 @@ def integrate_zero_dynamics(prob: GaitProblem, vc, theta_dot_plus):
 
     def g(theta, w):
         thd = jnp.sqrt(jnp.maximum(2.0 * w[0], 1e-12))
-        thdd, u, _, z = _zero_dynamics(vc, prob.stance, theta, thd)
+        thdd, u, grf, z = _zero_dynamics(vc, prob.stance, theta, thd)
         power = u * z[prob.n:][act]
-        return jnp.stack([thdd, 1.0 / thd, (u @ u) / thd, jnp.sum(jnp.maximum(power, 0.0)) / thd])
+        d = jnp.stack([thdd, 1.0 / thd, (u @ u) / thd, jnp.sum(jnp.maximum(power, 0.0)) / thd])
+        return d, (u, grf, z)
 
     def body(w, theta):
-        k1 = g(theta, w)
-        k2 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k1)
-        k3 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k2)
-        k4 = g(theta + hstep, w + hstep * k3)
+        k1, sample = g(theta, w)
+        k2 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k1)[0]
+        k3 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k2)[0]
+        k4 = g(theta + hstep, w + hstep * k3)[0]
         wn = w + (hstep / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
-        return wn, wn
+        return wn, (wn, sample)
 
     w0 = jnp.stack([0.5 * theta_dot_plus**2, 0.0, 0.0, 0.0])
-    wf, ws = jax.lax.scan(body, w0, thetas[:-1])
-    return wf, jnp.concatenate([w0[None], ws], 0), thetas
+    wf, (ws, samples) = jax.lax.scan(body, w0, thetas[:-1])
+    last = g(thetas[-1], wf)[1]
+    samples = jax.tree_util.tree_map(lambda a, b: jnp.concatenate([a, b[None]], 0), samples, last)
+    return wf, jnp.concatenate([w0[None], ws], 0), thetas, samples
 
 
 def evaluate(prob: GaitProblem, x):
@@ -145,10 +149,9 @@ def evaluate(prob: GaitProblem, x):
     n = prob.n
     thd_p = vc.c @ zp[n:]
     thd_m = vc.c @ z_minus[n:]
-    wf, ws, thetas = integrate_zero_dynamics(prob, vc, thd_p)
+    wf, ws, thetas, (u, grf, zs) = integrate_zero_dynamics(prob, vc, thd_p)
     zeta = ws[:, 0]
     thd = jnp.sqrt(jnp.maximum(2.0 * zeta, 1e-12))
-    thdd, u, grf, zs = jax.vmap(lambda th, td: _zero_dynamics(vc, prob.stance, th, td))(thetas, thd)
     heights = jax.vmap(lambda z: swing_height(prob.stance, z))(zs)
     step_length = swing_position(prob.stance, z_minus)[0]
     T = wf[1]
@@ -219,21 +222,26 @@ def solve(prob: GaitProblem, x0, tol: float = 1e-10, maxiter: int = 300, warm_st
     ne = 3
 
     def run():
-        cache = {}
+        cache: dict = {}
 
-        def vals(x):
-            key = x.tobytes()
+        def vals(x):  # values only: line-search trial points need no derivatives
+            key = ("f", x.tobytes())
             if key not in cache:
-                cache.clear()
-                cache[key] = (np.asarray(f(jnp.asarray(x))), np.asarray(jf(jnp.asarray(x))))
+                cache[key] = np.asarray(f(jnp.asarray(x)))
+            return cache[key]
+
+        def jac(x):
+            key = ("j", x.tobytes())
+            if key not in cache:
+                cache[key] = np.asarray(jf(jnp.asarray(x)))
             return cache[key]
 
         cons = [
-            dict(type="eq", fun=lambda x: vals(x)[0][1:1 + ne], jac=lambda x: vals(x)[1][1:1 + ne]),
-            dict(type="ineq", fun=lambda x: vals(x)[0][1 + ne:], jac=lambda x: vals(x)[1][1 + ne:]),
+            dict(type="eq", fun=lambda x: vals(x)[1:1 + ne], jac=lambda x: jac(x)[1:1 + ne]),
+            dict(type="ineq", fun=lambda x: vals(x)[1 + ne:], jac=lambda x: jac(x)[1 + ne:]),
         ]
         return scipy.optimize.minimize(
-            lambda x: vals(x)[0][0], x0, jac=lambda x: vals(x)[1][0], method="SLSQP",
+            lambda x: vals(x)[0], x0, jac=lambda x: jac(x)[0], method="SLSQP",
             constraints=cons, options=dict(maxiter=maxiter, ftol=tol),
         )
 

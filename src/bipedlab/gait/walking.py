@@ -149,7 +149,7 @@ def restricted_map(vc, st: Stance, theta_dot_minus, nodes: int = 60):
     q, qd = hzd.lift(vc, vc.theta_minus, theta_dot_minus)
     zp, _, _, _ = impact(st, jnp.concatenate([q, qd]))
     prob = GaitProblem(st, np.asarray(vc.H0), np.asarray(vc.c), order=vc.order, nodes=nodes)
-    wf, _, _ = integrate_zero_dynamics(prob, vc, vc.c @ zp[st.n:])
+    wf = integrate_zero_dynamics(prob, vc, vc.c @ zp[st.n:])[0]
     return jnp.sqrt(jnp.maximum(2.0 * wf[0], 0.0))
 
 
