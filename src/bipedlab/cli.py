@@ -34,24 +34,23 @@ def _positive_int(text: str) -> int:
     return v
 
 
-def _positive_float(text: str) -> float:
+def _number(text: str, strict: bool) -> float:
+    kind = "positive" if strict else "non-negative"
     try:
         v = float(text)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}") from None
-    if not (v > 0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"expected a positive number, got {text!r}")
+        raise argparse.ArgumentTypeError(f"expected a {kind} number, got {text!r}") from None
+    if not (math.isfinite(v) and (v > 0 if strict else v >= 0)):
+        raise argparse.ArgumentTypeError(f"expected a {kind} number, got {text!r}")
     return v
+
+
+def _positive_float(text: str) -> float:
+    return _number(text, strict=True)
 
 
 def _nonnegative_float(text: str) -> float:
-    try:
-        v = float(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}") from None
-    if not (v >= 0 and math.isfinite(v)):
-        raise argparse.ArgumentTypeError(f"expected a non-negative number, got {text!r}")
-    return v
+    return _number(text, strict=False)
 
 
 def _progress(msg: str) -> None:

@@ -201,22 +201,21 @@ def _point_velocity_accel(model: Model, fr: Frames, vel: Velocities, body: int, 
     return _add(fr.origin[body], r), v, a
 
 
-def point_velocity(model: Model, q, qd, point: PointRef) -> jax.Array:
-    """World velocity (m/s) of a named point, shape (2,)."""
+def _point_motion(model: Model, q, qd, point: PointRef):
     k = _resolve(model, point)
     fr = frames(model, q)
     vel = velocities(model, fr, qd)
-    _, v, _ = _point_velocity_accel(model, fr, vel, model.point_bodies[k], _point_offset(model, k))
-    return jnp.stack(v)
+    return _point_velocity_accel(model, fr, vel, model.point_bodies[k], _point_offset(model, k))
+
+
+def point_velocity(model: Model, q, qd, point: PointRef) -> jax.Array:
+    """World velocity (m/s) of a named point, shape (2,)."""
+    return jnp.stack(_point_motion(model, q, qd, point)[1])
 
 
 def point_jdot_qd(model: Model, q, qd, point: PointRef) -> jax.Array:
     """J-dot times qd for a named point (its acceleration when qdd = 0), shape (2,)."""
-    k = _resolve(model, point)
-    fr = frames(model, q)
-    vel = velocities(model, fr, qd)
-    _, _, a = _point_velocity_accel(model, fr, vel, model.point_bodies[k], _point_offset(model, k))
-    return jnp.stack(a)
+    return jnp.stack(_point_motion(model, q, qd, point)[2])
 
 
 def body_poses(model: Model, q) -> tuple[jax.Array, jax.Array, jax.Array]:

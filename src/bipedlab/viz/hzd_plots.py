@@ -69,6 +69,18 @@ def _constraint_plot(plt, path, vc, thetas, q_actual, names):
 OUTPUT_NAMES = ("hip_st", "knee_st", "hip_sw", "knee_sw")
 
 
+def _torque_plot(plt, path, x, u, xlabel, ylabel):
+    fig, ax = plt.subplots(figsize=(6, 3.5))
+    for i in range(u.shape[1]):
+        ax.plot(x, u[:, i], label=OUTPUT_NAMES[i])
+    ax.set_xlabel(xlabel)
+    ax.set_ylabel(ylabel)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+
+
 def gait_figures(out, prob, met) -> list[str]:
     """Figures of a designed gait (virtual constraints, torques along the step, stick figure)."""
     plt = _plt()
@@ -79,16 +91,8 @@ def gait_figures(out, prob, met) -> list[str]:
     thetas = np.asarray(met["thetas"])
     _constraint_plot(plt, out / "virtual_constraints.png", vc, thetas, (np.asarray(vc.H0) @ zs[:, :prob.n].T).T,
                      OUTPUT_NAMES)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
     u = np.asarray(met["u"])
-    for i in range(u.shape[1]):
-        ax.plot(thetas, u[:, i], label=OUTPUT_NAMES[i])
-    ax.set_xlabel("phase theta (rad)")
-    ax.set_ylabel("u* (N m)")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "torques.png", dpi=110)
-    plt.close(fig)
+    _torque_plot(plt, out / "torques.png", thetas, u, "phase theta (rad)", "u* (N m)")
     _sticks(plt, out / "stick_figure.png", prob.stance, zs[:: max(1, len(zs) // 8)], 0.0)
     np.savez(out / "gait.npz", thetas=thetas, states=zs, u=u, grf=np.asarray(met["grf"]))
     return [str(out / n) for n in ("virtual_constraints.png", "torques.png", "stick_figure.png", "gait.npz")]
@@ -120,15 +124,7 @@ def walk_figures(out, vc, st, ctrl, z0, w) -> list[str]:
     thetas = zs[:, : st.n] @ np.asarray(vc.c)
     _constraint_plot(plt, out / "virtual_constraints.png", vc, thetas, (np.asarray(vc.H0) @ zs[:, : st.n].T).T,
                      OUTPUT_NAMES)
-    fig, ax = plt.subplots(figsize=(6, 3.5))
-    for i in range(us.shape[1]):
-        ax.plot(t, us[:, i], label=OUTPUT_NAMES[i])
-    ax.set_xlabel("time in the first step (s)")
-    ax.set_ylabel("torque (N m)")
-    ax.legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(out / "torques.png", dpi=110)
-    plt.close(fig)
+    _torque_plot(plt, out / "torques.png", t, us, "time in the first step (s)", "torque (N m)")
     ok = np.asarray(w.status) == 0
     steps = int(np.sum(ok))
     pick = list(range(min(steps, 6)))
