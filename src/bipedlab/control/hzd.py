@@ -103,6 +103,7 @@ def pd_control(vc: VirtualConstraints, st: Stance, z, kp, kd, feedforward=None):
 
 def lift(vc: VirtualConstraints, theta, theta_dot):
     """The state on Z with phase theta and rate theta_dot: (q, qd)."""
+    theta = jnp.asarray(theta, dtype=float)
     A = jnp.concatenate([vc.H0, vc.c[None, :]], 0)
     hd, dhd, _ = desired(vc, theta)
     q = jnp.linalg.solve(A, jnp.concatenate([hd, theta[None]]))

@@ -47,10 +47,19 @@ def from_dict(d: dict, source: str = "gait") -> tuple[VirtualConstraints, jnp.nd
     n = c.size
     if H0.ndim != 2 or H0.shape[1] != n or alpha.ndim != 2 or alpha.shape[0] != H0.shape[0] or z.size != 2 * n:
         raise ValueError(f"{source}: inconsistent sizes (H0 {H0.shape}, c {c.shape}, alpha {alpha.shape}, z_minus {z.shape})")
-    if not (np.all(np.isfinite(alpha)) and np.all(np.isfinite(z)) and tm > tp):
-        raise ValueError(f"{source}: non-finite values or theta_minus <= theta_plus")
+    if not all(np.all(np.isfinite(a)) for a in (H0, c, alpha, z, tp, tm)):
+        raise ValueError(f"{source}: non-finite values (NaN or Infinity)")
+    if not tm > tp:
+        raise ValueError(f"{source}: theta_minus <= theta_plus (the phase must grow over a step)")
     vc = VirtualConstraints(jnp.asarray(H0), jnp.asarray(c), jnp.asarray(alpha), jnp.asarray(tp), jnp.asarray(tm))
     return vc, jnp.asarray(z), d
+
+
+def check_sizes(vc: VirtualConstraints, z_minus, n: int, m: int, source: str) -> None:
+    """ValueError unless the gait has m outputs on n stance coordinates (the robot's)."""
+    if vc.H0.shape != (m, n) or z_minus.shape != (2 * n,):
+        raise ValueError(f"{source}: gait sized for {vc.H0.shape[1]} stance coordinates and "
+                         f"{vc.H0.shape[0]} outputs; this robot has {n} and {m}")
 
 
 def load(path) -> tuple[VirtualConstraints, jnp.ndarray, dict]:

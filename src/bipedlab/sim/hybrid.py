@@ -67,7 +67,7 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
         bad = ~jnp.all(jnp.isfinite(zn)) | (fell(zn) & ~refining)
         # stepping: detect a crossing in [z, zn]
         hit = ~refining & armed(zn) & (g_new < 0) & (guard(z) >= 0)
-        acc = acc + jnp.where(refining, 0.0, h) * integrand(z)
+        acc = acc + jnp.where(refining | hit, 0.0, h) * integrand(z)  # the crossing step: below
         # refining: keep the secant pair (previous iterate, new iterate)
         converged = refining & (jnp.abs(g_new) <= tol)
         new_mode = jnp.where(bad, 2, jnp.where(hit, 1, jnp.where(converged, 2, mode)))
@@ -93,4 +93,5 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
     tau = tau - guard(ze) / jnp.where(found, slope, 1.0)
     ze = jnp.where(found, step(z, tau), z)
     t = t + jnp.where(found, tau, 0.0)
+    acc = acc + jnp.where(found, tau, 0.0) * integrand(z)  # the located part of the last step
     return StepResult(ze, t, acc, k, guard(ze), status)

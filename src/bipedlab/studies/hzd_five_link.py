@@ -91,7 +91,14 @@ def optimize(speed: float = 0.8, cost: str = "torque", controller: str = "iolin"
 
 
 def load_gait(path=None):
-    return gaitfile.load(path) if path else gaitfile.shipped(SHIPPED)
+    """The gait in a file (default: the shipped one); ValueError naming the file if it cannot
+    drive the five-link biped."""
+    vc, z, rec = gaitfile.load(path) if path else gaitfile.shipped(SHIPPED)
+    H0, _ = five_link.hzd_outputs()
+    gaitfile.check_sizes(vc, z, H0.shape[1], H0.shape[0], str(path or SHIPPED))
+    if rec.get("robot") != ROBOT:
+        raise ValueError(f"{path}: a gait for {rec.get('robot')!r}, not {ROBOT!r}")
+    return vc, z, rec
 
 
 def walk(steps: int = 50, perturb: float = 0.0, controller: str = "iolin", gait=None, seed: int = 0,
