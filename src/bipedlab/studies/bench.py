@@ -34,7 +34,7 @@ MUJOCO_BATCH = 64
 
 
 #: Timed repetitions of every measurement, both engines; the fastest counts (shared machines).
-REPEATS = 2
+REPEATS = 3
 
 
 def _best_of(fn: Callable) -> float:
