@@ -268,9 +268,7 @@ def initial_guess(prob: GaitProblem, z_minus) -> np.ndarray:
     dummy = jnp.zeros((prob.m, M - 3))
     vc, _, _ = constraints_from_state(prob, z_minus, dummy)
     a1, aM1 = vc.alpha[:, 1], vc.alpha[:, M - 1]
-    frac = jnp.arange(2, M - 1) / (M - 1.0)
     free = a1[:, None] + (aM1 - a1)[:, None] * ((jnp.arange(2, M - 1) - 1) / (M - 2.0))[None, :]
-    del frac
     return pack(z_minus, free)
 
 
