@@ -51,14 +51,14 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
     z0 = jnp.asarray(z0)
     zero = jnp.zeros((), z0.dtype)
 
-    # carry: k, z (start of the current step), t, acc, mode (0 stepping, 1 refining, 2 done),
-    #        secant bracket (ta, ga, tb, gb), status
+    # carry: k, z (start of the current step), guard at z, t, acc,
+    #        mode (0 stepping, 1 refining, 2 done), secant bracket (ta, ga, tb, gb), status
     def cond(c):
-        k, z, t, acc, mode, ta, ga, tb, gb, status = c
+        k, z, gz, t, acc, mode, ta, ga, tb, gb, status = c
         return (mode < 2) & (k < max_steps + max_refine)
 
     def body(c):
-        k, z, t, acc, mode, ta, ga, tb, gb, status = c
+        k, z, gz, t, acc, mode, ta, ga, tb, gb, status = c
         refining = mode == 1
         denom = jnp.where(gb != ga, gb - ga, 1.0)
         tau = jnp.where(refining, jnp.clip(tb - gb * (tb - ta) / denom, 0.0, h), h)
@@ -66,24 +66,25 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
         g_new = guard(zn)
         bad = ~jnp.all(jnp.isfinite(zn)) | (fell(zn) & ~refining)
         # stepping: detect a crossing in [z, zn]
-        hit = ~refining & armed(zn) & (g_new < 0) & (guard(z) >= 0)
+        hit = ~refining & armed(zn) & (g_new < 0) & (gz >= 0)
         acc = acc + jnp.where(refining | hit, 0.0, h) * integrand(z)  # the crossing step: below
         # refining: keep the secant pair (previous iterate, new iterate)
         converged = refining & (jnp.abs(g_new) <= tol)
         new_mode = jnp.where(bad, 2, jnp.where(hit, 1, jnp.where(converged, 2, mode)))
         advance = ~refining & ~hit & ~bad
         z_next = jnp.where(advance | bad, zn, z)
+        gz_next = jnp.where(advance | bad, g_new, gz)
         t_next = t + jnp.where(advance | bad, h, 0.0)
         ta_n = jnp.where(hit, 0.0, jnp.where(refining, tb, ta))
-        ga_n = jnp.where(hit, guard(z), jnp.where(refining, gb, ga))
+        ga_n = jnp.where(hit, gz, jnp.where(refining, gb, ga))
         tb_n = jnp.where(hit, h, jnp.where(refining, tau, tb))
         gb_n = jnp.where(hit, g_new, jnp.where(refining, g_new, gb))
         status = jnp.where(bad, jnp.where(jnp.all(jnp.isfinite(zn)), FELL, NONFINITE), status)
-        return k + 1, z_next, t_next, acc, new_mode, ta_n, ga_n, tb_n, gb_n, status
+        return k + 1, z_next, gz_next, t_next, acc, new_mode, ta_n, ga_n, tb_n, gb_n, status
 
-    init = (jnp.asarray(0), z0, zero, jnp.zeros(nint), jnp.asarray(0), zero, zero, zero, zero,
+    init = (jnp.asarray(0), z0, guard(z0), zero, jnp.zeros(nint), jnp.asarray(0), zero, zero, zero, zero,
             jnp.asarray(OK))
-    k, z, t, acc, mode, ta, ga, tb, gb, status = jax.lax.while_loop(cond, body, init)
+    k, z, _, t, acc, mode, ta, ga, tb, gb, status = jax.lax.while_loop(cond, body, init)
     found = (mode == 2) & (status == OK)
     status = jnp.where(found, OK, jnp.where(status == OK, FELL, status))
     # implicit-function form of the event time: exact value, exact forward-mode derivative

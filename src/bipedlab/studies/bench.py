@@ -59,9 +59,14 @@ def _batch_states(x0, n: int):
     return jnp.tile(x0, (n, 1)).at[:, 0].set(jnp.linspace(0.0, 1.0, n))
 
 
-def bipedlab_single(seconds: float):
+def _scenario(seconds: float):
+    """The anchor scenario with fall detection off (every rollout does the same work)."""
     params, x0, spec = scenarios.standing(seconds=seconds)
-    params = dataclasses.replace(params, min_height=jnp.asarray(-jnp.inf))
+    return dataclasses.replace(params, min_height=jnp.asarray(-jnp.inf)), x0, spec
+
+
+def bipedlab_single(seconds: float):
+    params, x0, spec = _scenario(seconds)
     fn = jax.jit(lambda p, x: rollout(scenarios.flow, scenarios.pd_policy, scenarios.fell, spec, p, x))
     first, run_s, res = _timed(fn, params, x0)
     return dict(
@@ -74,8 +79,7 @@ def bipedlab_single(seconds: float):
 
 
 def bipedlab_batched(seconds: float, batch: int):
-    params, x0, spec = scenarios.standing(seconds=seconds)
-    params = dataclasses.replace(params, min_height=jnp.asarray(-jnp.inf))
+    params, x0, spec = _scenario(seconds)
     fn = jax.jit(lambda p, x: batched_rollout(scenarios.flow, scenarios.pd_policy, scenarios.fell, spec, p, x))
     first, run_s, res = _timed(fn, params, _batch_states(x0, batch))
     return dict(
