@@ -15,6 +15,7 @@ STUDIES = {
     "bench": "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
     "optimize": "design a periodic HZD walking gait by optimisation (five-link)",
     "walk": "closed-loop HZD walking from a designed gait (five-link)",
+    "hop": "two-legged hopping on MABEL's 13-DoF model, with Poincaré analysis (mabel)",
 }
 
 
@@ -104,6 +105,17 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
     w.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     w.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+    h = sub.add_parser("hop", help=STUDIES["hop"], description=STUDIES["hop"])
+    h.add_argument("robot", choices=["mabel"])
+    h.add_argument("--hops", type=_positive_int, default=100, help="hops to simulate (default 100)")
+    h.add_argument("--no-torso-update", action="store_true",
+                   help="the nominal controller, without the event-based torso update (44)")
+    h.add_argument("--no-poincare", action="store_true", help="skip the Poincaré analysis")
+    h.add_argument("--accuracy", action="store_true",
+                   help="also compare the integrator against finer steps and RK4 on the first hop")
+    h.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    h.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
     return p
 
 
@@ -130,6 +142,13 @@ def main(argv=None) -> int:
         _emit(rec, args.json, bench.summary)
         return 0
     _enable_compile_cache()
+    if args.study == "hop":
+        from .studies import hop_mabel
+
+        rec = hop_mabel.study(args.hops, torso_update=not args.no_torso_update, poincare=not args.no_poincare,
+                              accuracy=args.accuracy, out=args.out, progress=_progress)
+        _emit(rec, args.json, hop_mabel.summary)
+        return 0
     from .studies import hzd_five_link as hz
 
     if args.study == "optimize":

@@ -19,6 +19,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..control import hopping as hop
+from ..sim import integrators
 from ..robots.mabel import dynamics as md
 from ..robots.mabel import model as mm
 from ..robots.mabel import tables as tb
@@ -64,15 +65,25 @@ def _fell(x):
     return (x[_I["y"]] < MIN_HIP_HEIGHT) | (tor < TORSO_RANGE[0]) | (tor > TORSO_RANGE[1])
 
 
+def _rk4_step(m, x, u, h):
+    return integrators.rk4(lambda x, u: md.flow(m, x, u), x, u, h)
+
+
+STEPPERS = {"implicit": md.step, "rk4": _rk4_step}
+
+
 def closed_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, steps: int, dt: float = DT, substeps: int = SUBSTEPS,
-                record: bool = True):
+                record: bool = True, stepper: str = "implicit"):
     """Simulate ``steps`` control samples. Returns (x, c, alive, log) where log holds per
-    sample the state after it, the commanded torques and the phase (or None)."""
+    sample the state after it, the commanded torques and the phase (or None).
+    stepper: "implicit" (:func:`~bipedlab.robots.mabel.dynamics.step`) or "rk4" on the exact
+    vector field (needs dt below about 1e-5 s at the hard stop)."""
+    advance = STEPPERS[stepper]
 
     def sample(carry, _):
         x, c, alive = carry
         c_new, u = hop.update(p, c, *_sense(m, p, x))
-        xn = jax.lax.fori_loop(0, substeps, lambda _, x: md.step(m, x, u, dt), x)
+        xn = jax.lax.fori_loop(0, substeps, lambda _, x: advance(m, x, u, dt), x)
         ok = alive & jnp.all(jnp.isfinite(xn)) & ~_fell(xn)
         x = jnp.where(ok, xn, x)
         c = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), c_new, c)
@@ -83,7 +94,7 @@ def closed_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, steps: int, dt: float = D
     return x, c, alive, log
 
 
-_closed_loop = jax.jit(closed_loop, static_argnames=("steps", "dt", "substeps", "record"))
+_closed_loop = jax.jit(closed_loop, static_argnames=("steps", "dt", "substeps", "record", "stepper"))
 
 
 _CACHE: dict = {}
@@ -166,3 +177,104 @@ def summarize(run: HopRun) -> dict:
         "real_time_fraction": run.wall_s / sim_time if sim_time else None,
         "compile_time_s": run.compile_s,
     }
+
+
+def accuracy_check(seconds: float = 1.2, params: hop.HopParams | None = None) -> dict:
+    """What the 0.1 ms semi-implicit step costs: the drop, first landing and first hop
+    simulated with it, with 4x finer steps, and with RK4 on the exact vector field at 5 us,
+    all under the same 1 ms controller (exact encoder readings, so all three see the same
+    signals). Reports the largest differences in hip height and torso angle and the times
+    of the first phase switches."""
+    m = mm.hopping_model()
+    p = (params or hop.paper_params()).replace(encoder_counts=jnp.asarray(0.0))
+    x0 = initial_state(m, p)
+    c0 = hop.initial_state(p, _sense(m, p, x0)[0])
+    steps = int(round(seconds / float(p.period)))
+    runs = {}
+    for name, dt, sub, stepper in (("implicit_0.1ms", DT, SUBSTEPS, "implicit"),
+                                   ("implicit_0.025ms", DT / 4, 4 * SUBSTEPS, "implicit"),
+                                   ("rk4_5us", DT / 20, 20 * SUBSTEPS, "rk4")):
+        t0 = time.perf_counter()
+        _, _, _, (xs, _, ph) = _closed_loop(m, p, x0, c0, steps=steps, dt=dt, substeps=sub, stepper=stepper)
+        xs, ph = np.asarray(xs), np.asarray(ph)
+        runs[name] = (xs, ph, time.perf_counter() - t0)
+    ref_x, ref_ph, _ = runs["rk4_5us"]
+
+    def switches(ph):
+        return [int(i) + 1 for i in np.flatnonzero(np.diff(ph))][:6]
+
+    out = {"seconds": seconds, "reference": "rk4_5us", "reference_phase_switch_ms": switches(ref_ph)}
+    for name, (xs, ph, wall) in runs.items():
+        if name == "rk4_5us":
+            continue
+        out[name] = {
+            "max_hip_height_error_mm": float(1e3 * np.abs(xs[:, _I["y"]] - ref_x[:, _I["y"]]).max()),
+            "max_torso_error_deg": float(np.rad2deg(np.abs(xs[:, _I["tor"]] - ref_x[:, _I["tor"]]).max())),
+            "phase_switch_ms": switches(ph),
+            "wall_s": wall,
+        }
+    return out
+
+
+def study(hops: int = 100, torso_update: bool = True, poincare: bool = True, accuracy: bool = False,
+          out: str | None = None, progress=None) -> dict:
+    """The hopping experiment of Section VIII-D: simulate, summarise, linearise, plot."""
+    say = progress or (lambda msg: None)
+    say(f"simulating {hops} hops on the 13-DoF model ({'with' if torso_update else 'without'} the torso update)")
+    run = run_hops(hops, torso_update=torso_update)
+    p = hop.paper_params()
+    rec = {"robot": "mabel", "model": "13-DoF hopping model (cable stretch, unilateral springs, compliant ground)",
+           "torso_update": torso_update, "hops_requested": hops}
+    rec.update(summarize(run))
+    rec.update(integrator="semi-implicit Euler, implicit spring and ground-friction damping", dt_s=DT,
+               control_period_s=float(p.period), encoder_counts_per_rev=int(p.encoder_counts))
+    rec["poincare_max_abs_eigenvalue"] = None
+    if poincare:
+        from . import hop_poincare
+
+        say("Poincaré analysis of the hop-to-hop map (with and without the torso update)")
+        pa = hop_poincare.analyse()
+        rec["poincare"] = pa
+        if pa.get("converged"):
+            key = "with_torso_update" if torso_update else "without_torso_update"
+            rec["poincare_max_abs_eigenvalue"] = pa[key]["max_abs_eigenvalue"]
+    if accuracy:
+        say("integrator accuracy check (first hop: 0.1 ms vs 0.025 ms vs RK4 at 5 us)")
+        rec["accuracy"] = accuracy_check()
+    if out:
+        from ..viz import hop_plots
+
+        stretch = cable_stretch(run.x)
+        rec["figures"] = hop_plots.write_figures(run, stretch, out)
+        path = f"{out}/hop_mabel.npz"
+        np.savez(path, t=run.t, x=run.x, u=run.u, phase=run.phase, touchdowns=run.touchdowns,
+                 cable_stretch=stretch, coordinates=np.array(mm.COORDS_13 + ("z_L", "z_R")))
+        rec["data"] = path
+    return rec
+
+
+def summary(rec: dict) -> str:
+    """Human-readable summary of :func:`study`."""
+    lines = [f"MABEL hopping, {rec['model']}",
+             f"  torso update (44): {'on' if rec['torso_update'] else 'off'}",
+             f"  hops completed: {rec['hops_completed']} of {rec['hops_requested']}"
+             + ("  (fell)" if rec["fell"] else "")]
+    if rec["mean_hop_period_s"] is not None:
+        lines.append(f"  hop period: {rec['mean_hop_period_s']:.3f} s +- {rec['hop_period_sd_s']:.3f} s")
+    lines.append("  max cable stretch (deg, motor side): "
+                 + ", ".join(f"{k} {v:.1f}" for k, v in rec["max_cable_stretch_deg"].items()))
+    lines.append(f"  peak motor torque: {rec['peak_motor_torque_nm']:.1f} N m")
+    lines.append(f"  simulated {rec['simulated_time_s']:.1f} s in {rec['wall_time_s']:.2f} s "
+                 f"({rec['real_time_fraction']:.3f} of real time; compile {rec['compile_time_s']:.1f} s)")
+    pa = rec.get("poincare")
+    if pa and pa.get("converged"):
+        for key, label in (("with_torso_update", "with update"), ("without_torso_update", "nominal")):
+            lines.append(f"  Poincaré, {label}: max |eigenvalue| {pa[key]['max_abs_eigenvalue']:.3f}")
+    if "accuracy" in rec:
+        for k, v in rec["accuracy"].items():
+            if isinstance(v, dict):
+                lines.append(f"  accuracy {k} vs RK4 5 us: hip height {v['max_hip_height_error_mm']:.2f} mm, "
+                             f"torso {v['max_torso_error_deg']:.3f} deg")
+    for f in rec.get("figures", []):
+        lines.append(f"  figure: {f}")
+    return "\n".join(lines)
