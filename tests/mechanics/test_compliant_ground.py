@@ -72,7 +72,7 @@ def test_normal_force_unilateral_continuous_monotone(ground):
     first touch); never pulls (>= 0, even when withdrawing fast); strictly grows with depth at a
     fixed non-negative rate; equals the hand-written law inside."""
     name, g = ground
-    p = tb.__dict__[name]
+    p = getattr(tb, name)
     k, n = p["stiffness"], p["exponent"]
     rates = np.array([-3.0, -1.0, -0.3, -0.01, 0.0, 0.01, 0.3, 1.0, 3.0])
     depths = np.array([1e-6, 1e-4, 1e-3, 3e-3, 1e-2])
@@ -109,7 +109,7 @@ def test_restitution_hunt_crossley(ground):
     d^n dissipates in proportion to speed), and at low speed 1 - e -> (lam_in + lam_out) v/(3k)
     (the Hunt-Crossley first-order result, 2 lam v/(3k) for equal dampers)."""
     name, g = ground
-    p = tb.__dict__[name]
+    p = getattr(tb, name)
     speeds = np.array([0.005, 0.1, 0.25, 0.5, 1.0, 2.0])
     e, y_end = _restitution(g, speeds, T=0.6)
     assert np.all(y_end > 0.0), "contact not over: integrate longer"

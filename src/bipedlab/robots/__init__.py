@@ -1,4 +1,4 @@
 """Robots with their published parameters and coordinates."""
-from . import five_link
+from . import five_link, mabel
 
-__all__ = ["five_link"]
+__all__ = ["five_link", "mabel"]

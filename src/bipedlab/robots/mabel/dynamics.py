@@ -125,9 +125,9 @@ def _spring_rows(m: Mabel):
     return [{j: v for j, v in enumerate(m.E[_H[f"bsp_{s}"]]) if v != 0.0} for s in tb.SIDES]
 
 
-def step(m: Mabel, x, u, h: float) -> jax.Array:
-    """One semi-implicit Euler step of length h; the spring/hard-stop damping and the
-    ground's tangential viscous terms are implicit: ``(M + h sum c a a^T) dv = h (f - sum c a a^T v)``."""
+def _damped_acceleration(m: Mabel, x, u, h: float):
+    """(qdd, contacts) with the stiff dampers taken implicitly over a step h:
+    ``(M + h sum c a a^T) qdd = f - sum c a a^T qd``."""
     n = m.n
     H, rhs, contacts, dampers = _forces(m, x, u, implicit=True)
     qd = x[n:2 * n]
@@ -140,7 +140,15 @@ def step(m: Mabel, x, u, h: float) -> jax.Array:
                 if jj <= j:
                     term = (h * a * b) * c
                     H[j][jj] = term if H[j][jj] is None else H[j][jj] + term
-    qdd = jnp.stack(cp.solve(H, rhs))
+    return jnp.stack(cp.solve(H, rhs)), contacts
+
+
+def step(m: Mabel, x, u, h: float) -> jax.Array:
+    """One semi-implicit Euler step of length h; the spring/hard-stop damping and the
+    ground's tangential viscous terms are implicit: ``(M + h sum c a a^T) dv = h (f - sum c a a^T v)``."""
+    n = m.n
+    qdd, contacts = _damped_acceleration(m, x, u, h)
+    qd = x[n:2 * n]
     qd_new = qd + h * qdd
     q_new = x[:n] + h * qd_new
     z = x[2 * n:]
