@@ -61,8 +61,8 @@ CABLE_D = {"mLS_L": 0.0402, "mLA_L": 0.0889, "mLS_R": 0.0804, "mLA_R": 0.3556}  
 # Table VI, ground model (see bipedlab.mechanics.compliant_ground for the force laws).
 # Table VI lists lambda_v^a = 3.0e6, lambda_v^b = 4.5e6, n = 1.5 and k = 4.38e7 without the
 # formula. Read with Marhefka-Orin's symbols (k the stiffness, the lambdas dampers for
-# compression/restitution), the ground returns over 90 % of the energy of a toe striking at
-# 0.1-1 m/s (Hunt-Crossley restitution e ~ 1 - (2/3)(lambda/k) v) and an unloaded toe
+# compression/restitution), the ground returns about 90 % or more of the energy of a toe
+# striking at up to 1 m/s (Hunt-Crossley restitution e ~ 1 - (2/3)(lambda/k) v) and an unloaded toe
 # chatters on it, which no rubber-tyred toe does. The default reads lambda_v^a as the
 # stiffness and lambda_v^b as the damping of F_N = d^n (lambda_v^a + lambda_v^b d_dot), a
 # nearly plastic touchdown (e ~ 0.6 at 0.5 m/s) with 2-3 mm penetration under the robot's
