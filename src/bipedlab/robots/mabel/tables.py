@@ -66,7 +66,13 @@ CABLE_D = {"mLS_L": 0.0402, "mLA_L": 0.0889, "mLS_R": 0.0804, "mLA_R": 0.3556}  
 # chatters on it, which no rubber-tyred toe does. The default reads lambda_v^a as the
 # stiffness and lambda_v^b as the damping of F_N = d^n (lambda_v^a + lambda_v^b d_dot), a
 # nearly plastic touchdown (e ~ 0.6 at 0.5 m/s) with 2-3 mm penetration under the robot's
-# weight; GROUND_LITERAL keeps the other reading for comparison.
+# weight (k = 4.38e7 then has no role); GROUND_LITERAL keeps the other reading for comparison (the hopping controller falls at
+# its first landing on it). Friction (LuGre per unit normal force, Plestan et al. 2003):
+# sigma_h0 = 260 /m bristle stiffness, sigma_h1 = 2.25 s/m bristle damping; of the three
+# alphas, the Coulomb level is alpha_h2 = 0.54, the static (Stribeck peak) level
+# alpha_h3 = 0.9 and the viscous coefficient alpha_h0 = 1.71 s/m (a Coulomb coefficient of
+# 1.71 would be implausible for a rubber toe). Not in the paper, chosen here: Stribeck
+# velocity 0.01 m/s and bristle relaxation 1000 /s off the ground.
 _FRICTION = dict(bristle_stiffness=260.0, bristle_damping=2.25, viscous=1.71, coulomb=0.54, static=0.9,
                  stribeck_velocity=0.01, relax=1000.0)
 GROUND = dict(stiffness=3.0e6, exponent=1.5, damping_in=4.5e6, damping_out=4.5e6, **_FRICTION)
