@@ -114,6 +114,8 @@ def build_parser() -> argparse.ArgumentParser:
     h.add_argument("--no-poincare", action="store_true", help="skip the Poincaré analysis")
     h.add_argument("--accuracy", action="store_true",
                    help="also compare the integrator against finer steps and RK4 on the first hop")
+    h.add_argument("--robustness", type=_positive_int, default=None, metavar="N",
+                   help="also drop the robot from N perturbed states and count hops with and without the update")
     h.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     h.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
     return p
@@ -146,7 +148,8 @@ def main(argv=None) -> int:
         from .studies import hop_mabel
 
         rec = hop_mabel.study(args.hops, torso_update=not args.no_torso_update, poincare=not args.no_poincare,
-                              accuracy=args.accuracy, out=args.out, progress=_progress)
+                              accuracy=args.accuracy, robustness_samples=args.robustness, out=args.out,
+                              progress=_progress)
         _emit(rec, args.json, hop_mabel.summary)
         return 0
     from .studies import hzd_five_link as hz
