@@ -118,3 +118,16 @@ def test_impact_map_constraints_and_dissipation(m):
     assert float(t.z_plus[w.STANCE.index("la_L")]) == pytest.approx(float(q[E["la_R"]]))
     assert float(t.lift_velocity[1]) > 0.0
     assert tb.GEAR_LS / tb.GEAR_BSP == pytest.approx(6.0656, rel=1e-4)
+
+
+def test_paper_coordinate_orders():
+    """q_h (identification paper, VIII-A) and q_e (HZD paper, II-B1) orders."""
+    from bipedlab.robots.mabel import model as mm
+
+    h = mm.hopping_model()
+    q = jnp.arange(13.0)
+    out = np.asarray(mm.paper_order(h, q))
+    assert [h.coord_names[int(i)] for i in out] == list(mm.PAPER_Q_H)
+    e = mm.rigid_model()
+    out = np.asarray(mm.paper_order(e, jnp.arange(9.0)))
+    assert [e.coord_names[int(i)] for i in out] == list(mm.PAPER_Q_E)

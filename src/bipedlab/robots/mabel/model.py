@@ -42,6 +42,10 @@ from . import transmission as tr
 COORDS_13 = ("x", "y", "tor", "la_L", "ls_L", "la_R", "ls_R", "bsp_L", "bsp_R", "mla_L", "mls_L", "mla_R", "mls_R")
 COORDS_9 = ("x", "y", "tor", "la_L", "la_R", "bsp_L", "bsp_R", "mls_L", "mls_R")
 TOES = ("toe_L", "toe_R")
+#: The papers' coordinate orders: q_h of the identification paper (Section VIII-A) and q_e of
+#: the HZD paper (Section II-B1, with L in stance): ``paper_order`` maps to them.
+PAPER_Q_H = ("la_L", "mla_L", "ls_L", "mls_L", "bsp_L", "la_R", "mla_R", "ls_R", "mls_R", "bsp_R", "tor", "x", "y")
+PAPER_Q_E = ("la_L", "mls_L", "bsp_L", "la_R", "mls_R", "bsp_R", "tor", "x", "y")
 _H = {c: i for i, c in enumerate(COORDS_13)}
 #: h-coordinate index of each actuator's motor, in tables.ACTUATORS order.
 MOTOR_INDEX = tuple(_H[a[:3].lower() + "_" + a[-1]] for a in tb.ACTUATORS)
@@ -195,6 +199,12 @@ def rigid_model(ground=None, drive=None) -> Mabel:
 def full_coordinates(m: Mabel, q) -> jax.Array:
     """q_h (13) for the model's coordinates q."""
     return jnp.asarray(np.asarray(m.E)) @ q
+
+
+def paper_order(m: Mabel, q) -> jax.Array:
+    """q (or qd) in the paper's order: q_h for the 13-DoF model, q_e for the 9-DoF model."""
+    order = PAPER_Q_E if m.rigid else PAPER_Q_H
+    return jnp.stack([q[m.coord_names.index(c)] for c in order])
 
 
 def named(m: Mabel, q) -> dict:
