@@ -12,7 +12,6 @@ from __future__ import annotations
 
 from typing import Sequence
 
-import jax
 import jax.numpy as jnp
 
 from .dynamics import mass_matrix
