@@ -94,16 +94,17 @@ def tree_coordinates(model: Coupled, q) -> jax.Array:
     return jnp.asarray(np.asarray(model.T)) @ q
 
 
-def _columns(model: Coupled):
-    """Per tree coordinate a: [(i, T[a, i]) for nonzero entries]."""
-    return [[(i, v) for i, v in enumerate(row) if v != 0.0] for row in model.T]
+def _columns(M) -> list:
+    """Per row a of a constant matrix (nested tuples): [(i, M[a][i]) for nonzero entries]."""
+    return [[(i, v) for i, v in enumerate(row) if v != 0.0] for row in M]
 
 
-def _pull_back(model: Coupled, vec: list) -> list:
-    """T^T vec for a list (or dict) of tree-coordinate scalars; None entries are zero."""
-    out = [None] * model.n
+def pull_back(M, vec) -> list:
+    """M^T vec for a constant matrix M (nested tuples, one row per entry of vec) and a list
+    or dict of scalars; None entries and structural zeros of the result are None."""
+    out = [None] * len(M[0])
     items = vec.items() if isinstance(vec, dict) else enumerate(vec)
-    cols = _columns(model)
+    cols = _columns(M)
     for a, val in items:
         if val is None:
             continue
@@ -117,7 +118,7 @@ def mass_matrix_entries(model: Model, fr: kin.Frames) -> list:
     """Lower triangle of M as nested lists of scalars (None = structural zero)."""
     Ht = dyn.mass_matrix_entries(model.tree, fr)
     n = model.n
-    cols = _columns(model)
+    cols = _columns(model.T)
     H = [[None] * (i + 1) for i in range(n)]
 
     def add(i, j, val):
@@ -146,7 +147,7 @@ def mass_matrix_entries(model: Model, fr: kin.Frames) -> list:
 
 def bias_entries(model: Coupled, fr: kin.Frames, vel: kin.Velocities) -> list:
     """T^T bias_tree + weight, as a list of scalars."""
-    out = _pull_back(model, dyn.bias_entries(model.tree, fr, vel))
+    out = pull_back(model.T, dyn.bias_entries(model.tree, fr, vel))
     zero = 0.0 * fr.origin[0][0]
     return [(zero if v is None else v) + model.weight[i] for i, v in enumerate(out)]
 
@@ -177,7 +178,7 @@ def point_force(model: Coupled, fr: kin.Frames, point: int, F) -> list:
     tree = model.tree
     b = tree.point_bodies[point]
     p = kin._point_world(tree, fr, b, kin._point_offset(tree, point))
-    return _pull_back(model, kin._generalized_force(tree, fr, b, p, F))
+    return pull_back(model.T, kin._generalized_force(tree, fr, b, p, F))
 
 
 def point_motion(model: Coupled, fr: kin.Frames, vel: kin.Velocities, point: int):

@@ -76,6 +76,14 @@ def _rk4_step(m, x, u, h):
 STEPPERS = {"implicit": md.step, "rk4": _rk4_step}
 
 
+def control_sample(m: mm.Mabel, p: hop.HopParams, x, c, dt: float, substeps: int, advance=md.step):
+    """One 1 ms control sample: the controller reads the state, then ``substeps`` steps of
+    length dt under its held torques. Returns (x after the sample, controller state, u)."""
+    c_new, u = hop.update(p, c, *_sense(m, p, x))
+    xn = jax.lax.fori_loop(0, substeps, lambda _, x: advance(m, x, u, dt), x)
+    return xn, c_new, u
+
+
 def closed_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, steps: int, dt: float = DT, substeps: int = SUBSTEPS,
                 record: bool = True, stepper: str = "implicit"):
     """Simulate ``steps`` control samples. Returns (x, c, alive, log) where log holds per
@@ -86,8 +94,7 @@ def closed_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, steps: int, dt: float = D
 
     def sample(carry, _):
         x, c, alive = carry
-        c_new, u = hop.update(p, c, *_sense(m, p, x))
-        xn = jax.lax.fori_loop(0, substeps, lambda _, x: advance(m, x, u, dt), x)
+        xn, c_new, u = control_sample(m, p, x, c, dt, substeps, advance)
         ok = alive & jnp.all(jnp.isfinite(xn)) & ~_fell(xn)
         x = jnp.where(ok, xn, x)
         c = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), c_new, c)

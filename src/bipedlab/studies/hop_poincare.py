@@ -19,13 +19,14 @@ unexplained.
 """
 from __future__ import annotations
 
+import dataclasses
+
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from ..control import hopping as hop
 from ..robots.mabel import model as mm
-from ..robots.mabel import dynamics as md
 from . import hop_mabel as hm
 
 HORIZON_S = 1.0
@@ -37,8 +38,7 @@ def _section_search(m, p, x, c, samples: int, substeps: int = hm.SUBSTEPS):
 
     def body(carry, _):
         x, c, found, xs, cs = carry
-        c_new, u = hop.update(p, c, *hm._sense(m, p, x))
-        xn = jax.lax.fori_loop(0, substeps, lambda _, x: md.step(m, x, u, hm.DT), x)
+        xn, c_new, _ = hm.control_sample(m, p, x, c, hm.DT, substeps)
         hit = (~found) & (c_new.phase == hop.TOUCHDOWN) & (c.phase == hop.FLIGHT)
         xs = jnp.where(hit, xn, xs)
         cs = jax.tree_util.tree_map(lambda a, b: jnp.where(hit, a, b), c_new, cs)
@@ -74,7 +74,7 @@ def _unpack(m, p, v, x_ref, c_ref, update: bool):
     fields = dict(h_prev=h - p.period * hdot, hdot=hdot)
     if update:
         fields.update(h_tor=v[k])
-    c = hop.HopState(**{**{f: getattr(c_ref, f) for f in c_ref.__dataclass_fields__}, **fields})
+    c = dataclasses.replace(c_ref, **fields)
     return x, c
 
 
@@ -154,7 +154,7 @@ def analyse(warmup_hops: int = 40, observe_hops: int = 16, per_base: int = 50, s
     J_u, un_u, k_u = fit_linear_map(return_map(m, p, x_ref, c_ref, True), V[:-1], sigma, per_base, spread, rng)
     h_tor = float(V[:, -1].mean())
     pn = p.replace(torso_update=jnp.asarray(0.0), h_tor0=jnp.asarray(h_tor))
-    cn = hop.HopState(**{**{f: getattr(c_ref, f) for f in c_ref.__dataclass_fields__}, "h_tor": jnp.asarray(h_tor)})
+    cn = dataclasses.replace(c_ref, h_tor=jnp.asarray(h_tor))
     J_n, un_n, k_n = fit_linear_map(return_map(m, pn, x_ref, cn, False), V[:-1, :-1], sigma[:-1], per_base, spread,
                                     rng)
     eig_u, eig_n = np.linalg.eigvals(J_u), np.linalg.eigvals(J_n)

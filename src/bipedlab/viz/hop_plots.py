@@ -60,29 +60,10 @@ def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30
     fig.tight_layout()
     paths.append(_save(fig, out / "hop_joints.png", plt))
 
-    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
-    for k, a in enumerate(tb.ACTUATORS):
-        axk = ax[k % 2, k // 2]
-        axk.plot(t, run.u[w, k])
-        axk.set_title(a)
-        axk.set_ylabel("command (N m)")
-    for a in ax[1]:
-        a.set_xlabel("time (s)")
-    fig.suptitle("Motor torque commands (cf. Fig. 22)")
-    fig.tight_layout()
-    paths.append(_save(fig, out / "hop_torques.png", plt))
-
-    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
-    for k, a in enumerate(tb.ACTUATORS):
-        axk = ax[k % 2, k // 2]
-        axk.plot(t, np.rad2deg(stretch[w, k]))
-        axk.set_title(a)
-        axk.set_ylabel("stretch, motor side (deg)")
-    for a in ax[1]:
-        a.set_xlabel("time (s)")
-    fig.suptitle("Cable stretch in motor coordinates (cf. Fig. 23)")
-    fig.tight_layout()
-    paths.append(_save(fig, out / "hop_cable_stretch.png", plt))
+    paths.append(_per_actuator(plt, t, run.u[w], "command (N m)", "Motor torque commands (cf. Fig. 22)",
+                               out / "hop_torques.png"))
+    paths.append(_per_actuator(plt, t, np.rad2deg(stretch[w]), "stretch, motor side (deg)",
+                               "Cable stretch in motor coordinates (cf. Fig. 23)", out / "hop_cable_stretch.png"))
 
     if len(run.touchdowns) > 2:
         fig, ax = plt.subplots(figsize=(7, 3.5))
@@ -93,6 +74,21 @@ def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30
         fig.tight_layout()
         paths.append(_save(fig, out / "hop_periods.png", plt))
     return paths
+
+
+def _per_actuator(plt, t, data, ylabel: str, title: str, path: Path) -> str:
+    """One panel per actuator (tables.ACTUATORS order) of data (N, 4) against t."""
+    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    for k, a in enumerate(tb.ACTUATORS):
+        axk = ax[k % 2, k // 2]
+        axk.plot(t, data[:, k])
+        axk.set_title(a)
+        axk.set_ylabel(ylabel)
+    for a in ax[1]:
+        a.set_xlabel("time (s)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path, plt)
 
 
 def _save(fig, path: Path, plt) -> str:

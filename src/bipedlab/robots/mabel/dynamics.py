@@ -61,20 +61,6 @@ def drivetrain_forces(m: Mabel, qh, qdh, u, implicit_spring_damping: bool):
     return out
 
 
-def _pull_back(m: Mabel, gen_h: list) -> list:
-    """E^T f for forces in the 13 coordinates."""
-    E = m.E
-    out = []
-    for j in range(m.n):
-        acc = None
-        for i in range(13):
-            if E[i][j] != 0.0:
-                term = E[i][j] * gen_h[i]
-                acc = term if acc is None else acc + term
-        out.append(acc)
-    return out
-
-
 def _forces(m: Mabel, x, u, implicit: bool):
     """(H lower triangle, rhs list, contact data, q_h, qd_h, dampers) for the state x.
 
@@ -86,7 +72,7 @@ def _forces(m: Mabel, x, u, implicit: bool):
     qh, qdh = Em @ q, Em @ qd
     fr, vel = cp.state_frames(m.body, q, qd)
     h = cp.bias_entries(m.body, fr, vel)
-    gen = _pull_back(m, drivetrain_forces(m, qh, qdh, u, implicit))
+    gen = cp.pull_back(m.E, drivetrain_forces(m, qh, qdh, u, implicit))
     rhs = [gen[i] - h[i] for i in range(n)]
     dampers, contacts = [], []
     if implicit:

@@ -31,7 +31,7 @@ import numpy as np
 
 from ...mechanics import coupled as cp
 from . import tables as tb
-from .dynamics import _pull_back, drivetrain_forces
+from .dynamics import drivetrain_forces
 from .model import COORDS_9, Mabel, rigid_model
 
 _E = {c: i for i, c in enumerate(COORDS_9)}
@@ -76,9 +76,8 @@ def _constraint_jacobian(m: Mabel, q):
 
 
 def _generalized_forces(m: Mabel, q, qd, u):
-    Em = jnp.asarray(np.asarray(m.E))
-    u_act = jnp.stack([u[0], u[1], u[2], u[3]])  # (mLA_L, mLS_L, mLA_R, mLS_R) = stance, swing
-    return jnp.stack(_pull_back(m, drivetrain_forces(m, Em @ q, Em @ qd, u_act, implicit_spring_damping=False)))
+    Em = jnp.asarray(np.asarray(m.E))  # u = (mLA_L, mLS_L, mLA_R, mLS_R) = (stance, swing)
+    return jnp.stack(cp.pull_back(m.E, drivetrain_forces(m, Em @ q, Em @ qd, u, implicit_spring_damping=False)))
 
 
 def constrained(m: Mabel, q, qd, u):
