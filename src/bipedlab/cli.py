@@ -13,8 +13,9 @@ import sys
 
 STUDIES = {
     "bench": "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
-    "optimize": "design a periodic HZD walking gait by optimisation (five-link)",
-    "walk": "closed-loop HZD walking from a designed gait (five-link)",
+    "optimize": "design a periodic HZD walking gait by optimisation (five-link, mabel)",
+    "walk": "closed-loop HZD walking from a designed gait (five-link, mabel)",
+    "experiment": "MABEL's walking experiments: nominal, push, efficient, tracking, impact-scaling, fast, sweep",
     "hop": "two-legged hopping on MABEL's 13-DoF model, with Poincaré analysis (mabel)",
 }
 
@@ -86,25 +87,41 @@ def build_parser() -> argparse.ArgumentParser:
     b.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
 
     o = sub.add_parser("optimize", help=STUDIES["optimize"], description=STUDIES["optimize"])
-    o.add_argument("robot", choices=["five-link"])
+    o.add_argument("robot", choices=["five-link", "mabel"])
     o.add_argument("--speed", type=_positive_float, default=0.8, help="walking speed, m/s")
     o.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
-    o.add_argument("--controller", choices=["iolin", "pd"], default="iolin", help="controller for the Poincaré analysis")
+    o.add_argument("--controller", choices=["iolin", "pd"], default="iolin",
+                   help="five-link: controller for the Poincaré analysis (MABEL reports PD + feedforward and HZD)")
+    o.add_argument("--no-poincare", action="store_true", help="mabel: skip the Poincaré analysis")
     o.add_argument("--save", metavar="FILE", help="write the gait to FILE (for walk --gait FILE)")
     o.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     o.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
     w = sub.add_parser("walk", help=STUDIES["walk"], description=STUDIES["walk"])
-    w.add_argument("robot", choices=["five-link"])
-    w.add_argument("--steps", type=_positive_int, default=50, help="number of steps")
+    w.add_argument("robot", choices=["five-link", "mabel"])
+    w.add_argument("--steps", type=_positive_int, default=None, help="number of steps (five-link 50, mabel 100)")
     w.add_argument("--perturb", type=_nonnegative_float, default=0.0,
-                   help="relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
-    w.add_argument("--controller", choices=["iolin", "pd"], default="iolin")
-    w.add_argument("--gait", metavar="FILE", help="a gait file from optimize --save (default: the shipped 0.8 m/s gait)")
+                   help="five-link: relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
+    w.add_argument("--controller", choices=["iolin", "pd", "pdff", "decentralized"], default=None,
+                   help="five-link: iolin | pd (default iolin); mabel: pdff | iolin | decentralized (default pdff)")
+    w.add_argument("--gait", metavar="GAIT",
+                   help="a gait file from optimize --save; mabel also takes nominal | efficient | fast (default nominal)")
+    w.add_argument("--push", metavar="FORCE@STEP", help="mabel: horizontal force (N, + forward) on the hip over the second half of step STEP")
+    w.add_argument("--impact-scale", type=_positive_float, default=1.0, metavar="ETA",
+                   help="mabel: impact scaling eta of Section VI-B (post-impact velocity / eta)")
+    w.add_argument("--sensing", choices=["encoders", "ideal"], default="encoders",
+                   help="mabel: 14-bit encoders with differentiated velocities (default) or the exact state")
     w.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
     w.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     w.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+    e = sub.add_parser("experiment", help=STUDIES["experiment"], description=STUDIES["experiment"])
+    e.add_argument("robot", choices=["mabel"])
+    e.add_argument("name", choices=["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep"])
+    e.add_argument("--steps", type=_positive_int, default=None, help="steps per walk (defaults per experiment)")
+    e.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    e.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
     h = sub.add_parser("hop", help=STUDIES["hop"], description=STUDIES["hop"])
     h.add_argument("robot", choices=["mabel"])
@@ -152,6 +169,21 @@ def main(argv=None) -> int:
                               progress=_progress)
         _emit(rec, args.json, hop_mabel.summary)
         return 0
+    if args.study == "experiment":
+        from .studies import walk_mabel_experiments as wx
+
+        rec = wx.run(args.name, steps=args.steps, out=args.out, progress=_progress)
+        _emit(rec, args.json, wx.summary)
+        return 0
+    if getattr(args, "robot", None) == "mabel":
+        return _mabel(parser, args)
+    if args.study == "walk":
+        if args.controller not in (None, "iolin", "pd"):
+            parser.error(f"five-link: --controller must be iolin or pd, got {args.controller}")
+        if args.push or args.impact_scale != 1.0:
+            parser.error("five-link: --push and --impact-scale apply to mabel only")
+        args.controller = args.controller or "iolin"
+        args.steps = args.steps or 50
     from .studies import hzd_five_link as hz
 
     if args.study == "optimize":
@@ -164,6 +196,31 @@ def main(argv=None) -> int:
             parser.error(str(e))
         rec = hz.walk(args.steps, args.perturb, args.controller, args.gait, args.seed, out=args.out, progress=_progress)
         _emit(rec, args.json, hz.summary_walk)
+    return 0
+
+
+def _mabel(parser, args) -> int:
+    from .studies import walk_mabel as wm
+
+    if args.study == "optimize":
+        rec = wm.optimize(args.speed, args.cost, save=args.save, out=args.out, poincare_check=not args.no_poincare,
+                          progress=_progress)
+        _emit(rec, args.json, wm.summary_optimize)
+        return 0
+    controller = args.controller or "pdff"
+    if controller == "pd":
+        parser.error("mabel: --controller must be pdff, iolin or decentralized")
+    if args.perturb:
+        parser.error("mabel: --perturb applies to five-link; use --push or --impact-scale")
+    gait = args.gait or "nominal"
+    try:
+        wm.load_gait(gait)
+        wm.parse_push(args.push)
+    except ValueError as e:
+        parser.error(str(e))
+    rec = wm.walk(gait, controller, args.steps or 100, push=args.push, eta=args.impact_scale, sensing=args.sensing,
+                  out=args.out, progress=_progress)
+    _emit(rec, args.json, wm.summary_walk)
     return 0
 
 

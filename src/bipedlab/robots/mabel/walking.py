@@ -31,6 +31,7 @@ import numpy as np
 
 from ...mechanics import coupled as cp
 from . import tables as tb
+from . import transmission as tr
 from .dynamics import drivetrain_forces
 from .model import COORDS_9, Mabel, rigid_model
 
@@ -75,34 +76,77 @@ def _constraint_jacobian(m: Mabel, q):
     return jnp.concatenate([J, jnp.zeros((1, 9)).at[0, _E["bsp_R"]].set(1.0)])
 
 
-def _generalized_forces(m: Mabel, q, qd, u):
-    Em = jnp.asarray(np.asarray(m.E))  # u = (mLA_L, mLS_L, mLA_R, mLS_R) = (stance, swing)
-    return jnp.stack(cp.pull_back(m.E, drivetrain_forces(m, Em @ q, Em @ qd, u, implicit_spring_damping=False)))
+def spring_torque(m: Mabel, b, bd, leg: int):
+    """Torque of the unilateral spring on B_spring in walking (eq. 30), N m: the spring and
+    its damping while compressed; the hard stop's damper acts only while the pulley presses
+    into the stop (b <= 0 and closing), so a spring released at rest on the stop, or leaving
+    it, sees the spring law alone."""
+    d = m.drive
+    elastic = tr.spring_elastic(d.spring_k[leg], d.kd1, b)
+    at_stop = (b <= 0.0) & (bd < 0.0)
+    damping = jnp.where(at_stop, tr.spring_damping_torque(d.spring_d, d.kvd1, d.kvd2, b, bd), -d.spring_d * bd)
+    return elastic + damping
 
 
-def constrained(m: Mabel, q, qd, u):
+def _generalized_forces(m: Mabel, q, qd, u, f_hip=None):
+    """Generalised forces on q_e: motors (u = (mLA_L, mLS_L, mLA_R, mLS_R), i.e. stance then
+    swing), motor friction, the springs, and an optional horizontal/vertical force on the hip
+    (N), the push of the experiments."""
+    Em = jnp.asarray(np.asarray(m.E))
+    out = drivetrain_forces(m, Em @ q, Em @ qd, u, implicit_spring_damping=True)
+    gen = jnp.stack(cp.pull_back(m.E, out))
+    for k, c in enumerate(("bsp_L", "bsp_R")):
+        i = _E[c]
+        gen = gen.at[i].set(gen[i] - tr.spring_elastic(m.drive.spring_k[k], m.drive.kd1, q[i]) + spring_torque(m, q[i], qd[i], k))
+    if f_hip is not None:
+        gen = gen + cp.point_jacobian(m.body, q, "hip").T @ f_hip
+    return gen
+
+
+def constrained(m: Mabel, q, qd, u, f_hip=None):
     """(qdd_e, lam) of the stance dynamics at (q_e, qd_e) under motor torques u."""
     D = cp.mass_matrix(m.body, q)
     H = cp.bias(m.body, q, qd)
     G = _constraint_jacobian(m, q)
     gdot = jax.jvp(lambda q: _constraint_jacobian(m, q) @ qd, (q,), (qd,))[1]
     K = jnp.block([[D, -G.T], [G, jnp.zeros((3, 3))]])
-    rhs = jnp.concatenate([_generalized_forces(m, q, qd, u) - H, -gdot])
+    rhs = jnp.concatenate([_generalized_forces(m, q, qd, u, f_hip) - H, -gdot])
     sol = jnp.linalg.solve(K, rhs)
     return sol[:9], sol[9:]
 
 
-def stance_flow(m: Mabel, z, u):
+def stance_flow(m: Mabel, z, u, f_hip=None):
     """z-dot of the stance dynamics (eq. 12) under motor torques u (4,)."""
     q, qd = embed(m, z)
-    qdd, _ = constrained(m, q, qd, u)
+    qdd, _ = constrained(m, q, qd, u, f_hip)
     return jnp.concatenate([z[6:], qdd[_S]])
 
 
-def ground_reaction(m: Mabel, z, u):
+def ground_reaction(m: Mabel, z, u, f_hip=None):
     """Force of the ground on the stance toe (Fx, Fy), N."""
     q, qd = embed(m, z)
-    return constrained(m, q, qd, u)[1][:2]
+    return constrained(m, q, qd, u, f_hip)[1][:2]
+
+
+def _upsilon(m: Mabel, qs):
+    return embed(m, jnp.concatenate([qs, jnp.zeros_like(qs)]))[0]
+
+
+def stance_terms(m: Mabel, qs, qds, f_hip=None):
+    """(D_s, H_s, B_s) of eqs. (11)-(12), ``D_s qdd_s + H_s = B_s u``, by reducing the 9-DoF
+    equations through q_e = Upsilon_s(q_s): D_s = J^T D_e J, H_s = J^T (D_e Jdot qd_s + H_e -
+    Gamma_e(0)), B_s = J^T dGamma_e/du, with J = dUpsilon_s/dq_s. The constraint forces drop
+    out because J spans the motions that keep the toe pinned and the swing spring at rest."""
+    ups = lambda s: _upsilon(m, s)  # noqa: E731
+    q, J = ups(qs), jax.jacfwd(ups)(qs)
+    qd = J @ qds
+    jdqd = jax.jvp(lambda s: jax.jvp(ups, (s,), (qds,))[1], (qs,), (qds,))[1]
+    D = cp.mass_matrix(m.body, q)
+    gam = lambda u: _generalized_forces(m, q, qd, u, f_hip)  # noqa: E731
+    u0 = jnp.zeros(4)
+    B = jax.jacfwd(gam)(u0)
+    H = D @ jdqd + cp.bias(m.body, q, qd) - gam(u0)
+    return J.T @ D @ J, J.T @ H, J.T @ B
 
 
 def swing_toe(m: Mabel, z):
@@ -111,6 +155,7 @@ def swing_toe(m: Mabel, z):
     return cp.point_position(m.body, q, "toe_R")
 
 
+@jax.tree_util.register_dataclass
 @dataclasses.dataclass(frozen=True)
 class Transition:
     """Result of the stance-to-stance map: the new stance state, the toe impulse (N s), the
@@ -124,8 +169,11 @@ class Transition:
     lift_velocity: jax.Array
 
 
-def impact(m: Mabel, z_minus) -> Transition:
-    """Delta_s->s of eqs. (14)-(20) for the pre-impact stance state z_minus."""
+def impact(m: Mabel, z_minus, eta=1.0) -> Transition:
+    """Delta_s->s of eqs. (14)-(20) for the pre-impact stance state z_minus.
+
+    eta: the impact scaling of Section VI-B, qd_e+ replaced by eta qd_e+ in (16)-(18): the
+    constraints are homogeneous, so the post-impact velocity is the rigid one divided by eta."""
     q, qd = embed(m, z_minus)
     D = cp.mass_matrix(m.body, q)
     Jt = cp.point_jacobian(m.body, q, "toe_R")
@@ -133,7 +181,7 @@ def impact(m: Mabel, z_minus) -> Transition:
     A = jnp.concatenate([Jt, Js])  # (17) new stance toe at rest, (16) old stance spring at rest
     K = jnp.block([[D, -A.T], [A, jnp.zeros((3, 3))]])
     sol = jnp.linalg.solve(K, jnp.concatenate([D @ qd, jnp.zeros(3)]))  # (18)
-    qd_plus, imp = sol[:9], sol[9:]
+    qd_plus, imp = sol[:9] / eta, sol[9:]
     step = cp.point_position(m.body, q, "toe_R")
     lift = cp.point_jacobian(m.body, q, "toe_L") @ qd_plus
     # T_mLS: the old stance spring returns to its stop, the motor keeps q_LS (eq. 1)

@@ -1,0 +1,143 @@
+"""Poincaré analysis of MABEL's walking (compliant-HZD paper, Section IV, eqs. 44 and 48).
+
+Both maps are taken on the switching surface S_si->sd (theta_s = theta_si) and integrate in
+theta with fixed RK4 nodes per sub-phase; the state-dependent events (touchdown, the 5 deg
+spring trigger) are closed by one RK4 step whose length Newton's method finds
+(:func:`~bipedlab.gait.mabel_zd.to_event`), so the maps are smooth and their Jacobians exact
+(forward mode), checked against central differences.
+
+- :func:`full_map` (eq. 44): the 12-state stance dynamics in closed loop with a controller
+  (PD + feedforward, or I/O linearisation with or without corrections), through SD,
+  touchdown, the transition map, MC, SC and SI.
+- :func:`restricted_map` (eq. 48): the 4-state zero dynamics with the hybrid-invariance
+  corrections and the stance motor leg-shape update at each impact, a map of (q_Bsp_st,
+  thetadot, qdot_Bsp_st) on the section.
+"""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from ..control import mabel_vc as vcm
+from ..control import mabel_walking as ctl
+from ..robots.mabel import walking as wk
+from . import mabel_zd as zd
+
+#: RK4 steps per sub-phase (MC, SC, SI, SD) for the closed-loop maps
+NODES = (6, 28, 28, 24)
+
+
+def closed_loop(m, kind, g, vc):
+    """f(phase, theta, z) = (dz/dtheta, u) of the stance dynamics under a controller."""
+
+    def f(phase, th, z):
+        u = ctl.control(kind, m, vc, phase, z, g)
+        dz = wk.stance_flow(m, z, u)
+        return dz / jnp.maximum(vcm.theta_rate(z[6:]), zd.THETA_DOT_FLOOR), u
+
+    return f
+
+
+def _toe(m):
+    return lambda th, z: wk.swing_toe(m, z)[1]
+
+
+def _spring(th, z):
+    return z[2] - vcm.SPRING_TRIGGER
+
+
+def _phase_run(f, phase, w, th0, th1, n):
+    return zd.integrate(f, phase, w, th0, th1, n)[0]
+
+
+def _after_impact(m, kind, nominal, z_plus, invariant):
+    if kind == "pdff":
+        return nominal
+    return vcm.update_at_impact(nominal, z_plus[:6], z_plus[6:], nominal, invariant=invariant)
+
+
+def full_map(m, kind, g, nominal, z, eta=1.0, invariant=True, nodes=NODES):
+    """P(z) of eq. 44 for a stance state z on (or near) theta = theta_si: the state on the
+    section after one step."""
+    n1, n2, n3, n4 = nodes
+    f_sd = lambda ph, th, w: closed_loop(m, kind, g, nominal)(vcm.SD, th, w)  # noqa: E731
+    th0 = vcm.theta(z[:6])
+    w = _phase_run(f_sd, vcm.SD, z, th0, nominal.theta_minus, n4)
+    h0 = jnp.zeros(())
+    _, z_minus = zd.to_event(lambda th, w: f_sd(vcm.SD, th, w), nominal.theta_minus, w, _toe(m), h0)
+    zp = wk.impact(m, z_minus, eta).z_plus
+    vc = _after_impact(m, kind, nominal, zp, invariant)
+    f = closed_loop(m, kind, g, vc)
+    w = _phase_run(f, vcm.MC, zp, vcm.theta(zp[:6]), vc.theta_mc, n1)
+    w = _phase_run(f, vcm.SC, w, vc.theta_mc, nominal.theta_sc, n2)
+    th_sc, w = zd.to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w, _spring, h0)
+    vc = vc.replace(theta_sc=th_sc)
+    f = closed_loop(m, kind, g, vc)
+    w = _phase_run(f, vcm.SI, w, th_sc, vc.theta_si, n3)
+    return w
+
+
+def restricted_map(m, nominal, x, eta=1.0, nodes=NODES):
+    """rho(x) of eq. 48 for x = (q_Bsp_st, thetadot, qdot_Bsp_st) at theta = theta_si: the zero
+    dynamics with the corrections of eqs. 45-47 and the event-based stance motor update."""
+    n1, n2, n3, n4 = nodes
+    pad = jnp.zeros(5)
+    w = jnp.concatenate([x, pad])
+    f0 = zd.zero_dynamics(m, nominal)
+    w = _phase_run(f0, vcm.SD, w, nominal.theta_si, nominal.theta_minus, n4)
+    th_m, w = zd.to_event(lambda th, v: f0(vcm.SD, th, v), nominal.theta_minus, w,
+                          lambda th, v: zd.swing_height(m, nominal, vcm.SD, th, v), jnp.zeros(()))
+    z_minus = zd.state(nominal, vcm.SD, th_m, w)
+    zp = wk.impact(m, z_minus, eta).z_plus
+    vc = vcm.update_at_impact(nominal, zp[:6], zp[6:], nominal, invariant=True)
+    w = jnp.concatenate([jnp.stack([zp[2], vcm.theta_rate(zp[6:]), zp[8]]), pad])
+    f = zd.zero_dynamics(m, vc)
+    w = _phase_run(f, vcm.MC, w, vc.theta_plus, vc.theta_mc, n1)
+    w = _phase_run(f, vcm.SC, w, vc.theta_mc, nominal.theta_sc, n2)
+    th_sc, w = zd.to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w,
+                           lambda th, v: v[0] - vcm.SPRING_TRIGGER, jnp.zeros(()))
+    vc = vc.replace(theta_sc=th_sc)
+    f = zd.zero_dynamics(m, vc)
+    w = _phase_run(f, vcm.SI, w, th_sc, vc.theta_si, n3)
+    return w[:3]
+
+
+def value_and_jacobian(fun):
+    """One compiled function x -> (fun(x), dfun/dx) (forward mode)."""
+    return jax.jit(jax.jacfwd(lambda x: (fun(x), fun(x)), has_aux=True))
+
+
+def fixed_point(fun, x0, iterations: int = 8, fix=None):
+    """Newton's method on x = fun(x) with the exact Jacobian; ``fix`` (index) keeps one
+    coordinate at its value. Returns (x, J at x, residual)."""
+    vj = value_and_jacobian(fun)
+    x = jnp.asarray(x0)
+    J, fx = vj(x)
+    for _ in range(iterations):
+        r = fx - x
+        if float(jnp.max(jnp.abs(r))) < 1e-11:
+            break
+        A = J - jnp.eye(x.size)
+        if fix is not None:
+            A = A.at[:, fix].set(0.0)
+        x = x + jnp.linalg.lstsq(A, -r)[0]
+        J, fx = vj(x)
+    return x, J, float(jnp.max(jnp.abs(fx - x)))
+
+
+def eigenvalues(J):
+    """Eigenvalues sorted by magnitude (largest first)."""
+    ev = np.linalg.eigvals(np.asarray(J))
+    return ev[np.argsort(-np.abs(ev))]
+
+
+def central_differences(fun, x, step=1e-6):
+    fun = jax.jit(fun)
+    x = np.asarray(x, float)
+    cols = []
+    for i in range(x.size):
+        e = np.zeros_like(x)
+        e[i] = step * max(1.0, abs(x[i]))
+        cols.append((np.asarray(fun(jnp.asarray(x + e))) - np.asarray(fun(jnp.asarray(x - e)))) / (2 * e[i]))
+    return np.stack(cols, 1)
