@@ -61,12 +61,13 @@ def output_jacobian(dh):
     return H0 - dh[:, None] * _THETA_Q[None, :]
 
 
-def decoupling(m, vc, phase, z):
-    """(y, y-dot, LgLfh (4, 4), Lf^2 h (4,)) at the stance state z."""
+def decoupling(m, vc, phase, z, terms=None):
+    """(y, y-dot, LgLfh (4, 4), Lf^2 h (4,)) at the stance state z; ``terms`` = (D_s, H_s, B_s)
+    when the caller has them."""
     qs, qds = z[:6], z[6:]
     th, thd = vcm.theta(qs), vcm.theta_rate(qds)
     h, dh, ddh = vcm.desired_derivatives(vc, phase, th)
-    D, H, B = wk.stance_terms(m, qs, qds)
+    D, H, B = wk.stance_terms(m, qs, qds) if terms is None else terms
     Jy = output_jacobian(dh)
     y = vcm.controlled(qs) - h
     yd = Jy @ qds
@@ -76,9 +77,9 @@ def decoupling(m, vc, phase, z):
     return y, yd, A, lf2
 
 
-def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False):
+def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False, terms=None):
     """Eq. 42 (decentralised: diagonal decoupling matrix)."""
-    y, yd, A, lf2 = decoupling(m, vc, phase, z)
+    y, yd, A, lf2 = decoupling(m, vc, phase, z, terms)
     v = -(g.kp_io / g.eps**2) * y - (g.kd_io / g.eps) * yd
     if decentralized:
         A = jnp.diag(jnp.diag(A[:, jnp.asarray(ACTUATOR_OF_OUTPUT)]))
@@ -107,10 +108,11 @@ def pdff(m, vc, phase, z, g: Gains):
     return pd_feedforward(vc, phase, y, yd, vcm.theta(z[:6]), g)
 
 
-def control(kind: str, m, vc, phase, z, g: Gains):
+def control(kind: str, m, vc, phase, z, g: Gains, terms=None):
+    """The torque of controller ``kind`` (one of :data:`KINDS`) at the stance state z."""
     if kind == "pdff":
         return pdff(m, vc, phase, z, g)
-    return iolin(m, vc, phase, z, g, decentralized=(kind == "decentralized"))
+    return iolin(m, vc, phase, z, g, decentralized=(kind == "decentralized"), terms=terms)
 
 
 def regress_feedforward(thetas, us, phases, bounds, order: int = 5):

@@ -20,7 +20,7 @@ Equalities: periodicity (b, thetadot, bdot at theta- equal the decision values),
 thetadot > 0, positive normal force and |F_T / F_N| <= 0.6 along the step, the swing toe above
 the ground between lift-off and touchdown, the lifting toe leaving the ground, the swing toe landing at >= 0.1 m/s, the spring
 decompressing at theta_sc, the sub-phases in order, the spring compressed by at least BSP_MIN after MC, swing leg angle
-<= 220 deg and stance leg angle >= 140 deg, the motor torques within 30 / 55 N m.
+<= 220 deg and stance leg angle >= 140 deg, the motor torques within 30 / 55 N m, and optionally a minimum step length.
 
 Costs: ``torque``, the integral of |u|^2 dt per step length (eq. 39); ``cmt``, the positive
 motor work per weight and distance (eqs. 40-41). SciPy's SLSQP with exact forward-mode
@@ -124,7 +124,7 @@ def run_step(m, vc, w0, nodes=NODES):
     return wf, (ths, ws, us, qss, qdss), starts
 
 
-def evaluate(m, x, speed, eta=1.0):
+def evaluate(m, x, speed, eta=1.0, min_step=0.0):
     """(figures, equalities, inequalities) of the decision vector x (all JAX)."""
     zm = pre_impact_state(x)
     tr = wk.impact(m, zm, eta)
@@ -158,6 +158,7 @@ def evaluate(m, x, speed, eta=1.0):
         (ws[NODES[0]:, 0] - BSP_MIN) * 10,
         (jnp.deg2rad(220.0) - qss[:, 3]) * 5, (qss[:, 0] - jnp.deg2rad(140.0)) * 5,
         (1.0 - jnp.abs(us) / LIMITS).ravel(),
+        jnp.stack([(step_length - min_step) * 5]),
     ])
     figures = dict(
         speed=v, step_length=step_length, period=T, torque_cost=wf[4] / step_length,
@@ -197,18 +198,19 @@ def _compiled(cost):
     """One compiled call giving cost, equalities, inequalities and their Jacobians for a
     (model, x, speed); the speed is traced, so a sweep compiles once per cost."""
     if cost not in _COMPILED:
-        def parts(m, x, speed):
-            fig, eq, ineq, _ = evaluate(m, x, speed)
+        def parts(m, x, speed, min_step):
+            fig, eq, ineq, _ = evaluate(m, x, speed, min_step=min_step)
             return jnp.concatenate([_scalar_cost(fig, cost)[None], eq, ineq])
 
-        _COMPILED[cost] = jax.jit(lambda m, x, speed: (parts(m, x, speed), jax.jacfwd(parts, argnums=1)(m, x, speed)))
+        _COMPILED[cost] = jax.jit(lambda m, x, speed, min_step: (parts(m, x, speed, min_step),
+                                                                  jax.jacfwd(parts, argnums=1)(m, x, speed, min_step)))
     return _COMPILED[cost]
 
 
 _COMPILED: dict = {}
 
 
-def _functions(m, speed, cost):
+def _functions(m, speed, cost, min_step=0.0):
     """Cost, equalities, inequalities and Jacobians as SciPy callbacks, memoised on x."""
     both = _compiled(cost)
     memo = {}
@@ -217,7 +219,7 @@ def _functions(m, speed, cost):
         key = np.asarray(x, float).tobytes()
         if key not in memo:
             memo.clear()
-            v, j = both(m, jnp.asarray(x, float), jnp.asarray(speed, float))
+            v, j = both(m, jnp.asarray(x, float), jnp.asarray(speed, float), jnp.asarray(min_step, float))
             memo[key] = (np.asarray(v), np.asarray(j))
         return memo[key]
 
@@ -226,8 +228,8 @@ def _functions(m, speed, cost):
             lambda x: get(x)[1][1:1 + ne], lambda x: get(x)[0][1 + ne:], lambda x: get(x)[1][1 + ne:])
 
 
-def _problem(speed, cost, model=None):
-    return _functions(design_model(model), speed, cost)
+def _problem(speed, cost, model=None, min_step=0.0):
+    return _functions(design_model(model), speed, cost, min_step)
 
 
 def compile_problem(speed: float, cost: str, model=None) -> None:
@@ -237,11 +239,11 @@ def compile_problem(speed: float, cost: str, model=None) -> None:
 
 
 def optimize(speed: float = 0.8, cost: str = "torque", x0=None, maxiter: int = 500, ftol: float = 1e-9,
-             model=None):
+             model=None, min_step: float = 0.0):
     """Solve the gait-design NLP from x0 (default: :func:`initial_guess`); returns (Design,
     info) with info: success, message, iterations, wall_s, eq_residual, ineq_violation."""
     m = design_model(model)
-    f, fj, e, ej, i, ij = _problem(speed, cost, model)
+    f, fj, e, ej, i, ij = _problem(speed, cost, model, min_step)
     x0 = initial_guess(speed) if x0 is None else np.asarray(x0, float)
     t0 = time.perf_counter()
     x0 = feasible_start(f, e, ej, i, ij, x0)

@@ -32,8 +32,9 @@ def closed_loop(m, kind, g, vc):
     """f(phase, theta, z) = (dz/dtheta, u) of the stance dynamics under a controller."""
 
     def f(phase, th, z):
-        u = ctl.control(kind, m, vc, phase, z, g)
-        dz = wk.stance_flow(m, z, u)
+        D, H, B = terms = wk.stance_terms(m, z[:6], z[6:])
+        u = ctl.control(kind, m, vc, phase, z, g, terms)
+        dz = jnp.concatenate([z[6:], jnp.linalg.solve(D, B @ u - H)])
         return dz / jnp.maximum(vcm.theta_rate(z[6:]), zd.THETA_DOT_FLOOR), u
 
     return f
@@ -105,7 +106,11 @@ def restricted_map(m, nominal, x, eta=1.0, nodes=NODES):
 
 def value_and_jacobian(fun):
     """One compiled function x -> (fun(x), dfun/dx) (forward mode)."""
-    return jax.jit(jax.jacfwd(lambda x: (fun(x), fun(x)), has_aux=True))
+    def twice(x):
+        y = fun(x)
+        return y, y
+
+    return jax.jit(jax.jacfwd(twice, has_aux=True))
 
 
 def fixed_point(fun, x0, iterations: int = 8, fix=None):
