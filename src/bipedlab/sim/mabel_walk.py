@@ -32,6 +32,7 @@ from ..control import mabel_walking as ctl
 from ..gait.mabel_zd import motor_power
 from ..mechanics import coupled as cp
 from ..robots.mabel import walking as wk
+from .integrators import rk4
 
 SAMPLE = 1e-3
 SUBSTEPS = 4
@@ -89,11 +90,8 @@ def _hip_force(setup: Setup, s: State):
 
 
 def _rk4(m, z, u, f, h):
-    k1 = wk.stance_flow(m, z, u, f)
-    k2 = wk.stance_flow(m, z + 0.5 * h * k1, u, f)
-    k3 = wk.stance_flow(m, z + 0.5 * h * k2, u, f)
-    k4 = wk.stance_flow(m, z + h * k3, u, f)
-    return z + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+    """RK4 substep of the stance dynamics under torque u and hip force f, both held."""
+    return rk4(lambda x, uf: wk.stance_flow(m, x, uf[0], uf[1]), z, (u, f), h)
 
 
 def _toe(m, z):
@@ -132,17 +130,18 @@ def sample(m, kind: str, setup: Setup, s: State):
     relabel = s.impacted & (s.t > 0.0)  # the first sample starts from a post-impact state
     # across a touchdown the estimator predicts the post-impact rates with the model's
     # transition map applied to its last (pre-impact) estimate
-    predicted = wk.impact(m, jnp.concatenate([s.q_prev, s.v_est]), setup.eta).z_plus
-    v = VELOCITY_FILTER * s.v_est + (1.0 - VELOCITY_FILTER) * (q - s.q_prev) / SAMPLE
-    v = jnp.where(relabel, predicted[6:], v)
+    # transition map applied to its last (pre-impact) estimate; both maps run only then
+    v = jax.lax.cond(
+        relabel, lambda _: wk.impact(m, jnp.concatenate([s.q_prev, s.v_est]), setup.eta).z_plus[6:],
+        lambda _: VELOCITY_FILTER * s.v_est + (1.0 - VELOCITY_FILTER) * (q - s.q_prev) / SAMPLE, None)
     v = jnp.where(setup.quantised > 0, v, s.z[6:])
     zm = jnp.concatenate([q, v])
     nominal = setup.vc
     if kind == "pdff":
-        vc_new = nominal
+        vc = jax.tree_util.tree_map(lambda a, b: jnp.where(s.impacted, a, b), nominal, s.vc)
     else:
-        vc_new = vcm.update_at_impact(nominal, q, v, nominal, invariant=True)
-    vc = jax.tree_util.tree_map(lambda a, b: jnp.where(s.impacted, a, b), vc_new, s.vc)
+        vc = jax.lax.cond(s.impacted, lambda _: vcm.update_at_impact(nominal, q, v, nominal, invariant=True),
+                          lambda _: s.vc, None)
     phase = jnp.where(s.impacted, vcm.MC, s.phase)
     phase, th_sc = vcm.next_phase(vc, phase, q, v, GAMMA)
     vc = vc.replace(theta_sc=th_sc)
