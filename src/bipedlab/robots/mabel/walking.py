@@ -81,11 +81,14 @@ def spring_torque(m: Mabel, b, bd, leg: int):
     its damping while compressed; the hard stop's damper acts only while the pulley presses
     into the stop (b <= 0 and closing), so a spring released at rest on the stop, or leaving
     it, sees the spring law alone."""
+    return tr.spring_elastic(m.drive.spring_k[leg], m.drive.kd1, b) + spring_damping(m, b, bd)
+
+
+def spring_damping(m: Mabel, b, bd):
+    """The dissipative part of :func:`spring_torque` (N m)."""
     d = m.drive
-    elastic = tr.spring_elastic(d.spring_k[leg], d.kd1, b)
     at_stop = (b <= 0.0) & (bd < 0.0)
-    damping = jnp.where(at_stop, tr.spring_damping_torque(d.spring_d, d.kvd1, d.kvd2, b, bd), -d.spring_d * bd)
-    return elastic + damping
+    return jnp.where(at_stop, tr.spring_damping_torque(d.spring_d, d.kvd1, d.kvd2, b, bd), -d.spring_d * bd)
 
 
 def _generalized_forces(m: Mabel, q, qd, u, f_hip=None):
@@ -95,9 +98,9 @@ def _generalized_forces(m: Mabel, q, qd, u, f_hip=None):
     Em = jnp.asarray(np.asarray(m.E))
     out = drivetrain_forces(m, Em @ q, Em @ qd, u, implicit_spring_damping=True)
     gen = jnp.stack(cp.pull_back(m.E, out))
-    for k, c in enumerate(("bsp_L", "bsp_R")):
+    for c in ("bsp_L", "bsp_R"):  # drivetrain_forces gave the elastic part; add the walking damping
         i = _E[c]
-        gen = gen.at[i].set(gen[i] - tr.spring_elastic(m.drive.spring_k[k], m.drive.kd1, q[i]) + spring_torque(m, q[i], qd[i], k))
+        gen = gen.at[i].add(spring_damping(m, q[i], qd[i]))
     if f_hip is not None:
         gen = gen + cp.point_jacobian(m.body, q, "hip").T @ f_hip
     return gen
