@@ -27,3 +27,23 @@ def random_states(rng: np.random.Generator, n: int, nq: int, qd_scale: float = 2
     q[:, :2] = rng.uniform(-1.0, 1.0, size=(n, 2))
     qd = qd_scale * rng.standard_normal(size=(n, nq))
     return q, qd
+
+
+def expect_usage_error(argv, capsys, needle=None) -> str:
+    """Run ``bipedlab`` with argv and check the bad-input contract: exit status 2, nothing on
+    stdout, one ``bipedlab: error: ...`` line on stderr (containing needle if given). Returns
+    that line."""
+    import pytest
+
+    from bipedlab import cli
+
+    with pytest.raises(SystemExit) as exc:
+        cli.main(argv)
+    assert exc.value.code == 2
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bipedlab: error: "), captured.err
+    if needle is not None:
+        assert needle in lines[0], lines[0]
+    return lines[0]

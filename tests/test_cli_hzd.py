@@ -17,6 +17,7 @@ import numpy as np
 import pytest
 
 from bipedlab import cli
+from helpers import expect_usage_error
 from bipedlab.gait import gaitfile
 
 WALK_KEYS = {
@@ -111,18 +112,6 @@ def test_walk_from_a_perturbed_state_converges(perturbed_walk, short_walk):
 
 # ---- bad input: status 2, one line on stderr ----------------------------------------------
 
-def _expect_usage_error(argv, capsys, needle=None):
-    with pytest.raises(SystemExit) as exc:
-        cli.main(argv)
-    assert exc.value.code == 2
-    captured = capsys.readouterr()
-    assert captured.out == ""
-    lines = captured.err.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("bipedlab: error: "), captured.err
-    if needle:
-        assert needle in lines[0]
-
-
 @pytest.mark.parametrize("argv", [
     ["walk", "five-link", "--steps", "0"],
     ["walk", "five-link", "--steps", "-2"],
@@ -138,7 +127,7 @@ def _expect_usage_error(argv, capsys, needle=None):
     ["optimize", "five-link", "--cost", "energy"],
 ])
 def test_bad_arguments_exit_2_with_one_line(argv, capsys):
-    _expect_usage_error(argv, capsys)
+    expect_usage_error(argv, capsys)
 
 
 @pytest.fixture
@@ -167,7 +156,7 @@ def _bad_gait_files(tmp_path):
 
 def test_bad_gait_files_exit_2_naming_the_file(tmp_path, capsys, no_compile_cache):
     for name, path in _bad_gait_files(tmp_path).items():
-        _expect_usage_error(["walk", "five-link", "--gait", str(path), "--json"], capsys, needle=str(path))
+        expect_usage_error(["walk", "five-link", "--gait", str(path), "--json"], capsys, needle=str(path))
 
 
 @pytest.mark.parametrize("case", ["theta_minus_inf", "c_nan", "four_link_sizes"])
@@ -191,7 +180,7 @@ def test_gait_files_unusable_for_the_robot_exit_2(case, tmp_path, capsys, monkey
         d["z_minus"] = d["z_minus"][:4] + d["z_minus"][5:9]
     path = tmp_path / f"{case}.json"
     path.write_text(json.dumps(d))
-    _expect_usage_error(["walk", "five-link", "--gait", str(path), "--json"], capsys, needle=str(path))
+    expect_usage_error(["walk", "five-link", "--gait", str(path), "--json"], capsys, needle=str(path))
 
 
 def test_bad_gait_file_from_the_console_script(tmp_path, env):

@@ -13,14 +13,9 @@ from bipedlab.mechanics import coupled as cp
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel import walking as w
 
+from .test_mabel_walking import _z
+
 E = {c: i for i, c in enumerate(w.COORDS_9)}
-
-
-def _z(seed=0):
-    rng = np.random.default_rng(seed)
-    qs = np.array([np.pi + 0.15, 31.42 * 0.25, 0.05, np.pi - 0.25, 31.42 * 0.35, 0.05]) + 0.02 * rng.standard_normal(6)
-    qds = np.array([0.5, 2.0, 0.3, -1.0, 5.0, 0.2]) * (1 + 0.2 * rng.standard_normal(6))
-    return jnp.asarray(np.concatenate([qs, qds]))
 
 
 def _pre_impact():

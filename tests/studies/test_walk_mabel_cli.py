@@ -10,6 +10,7 @@ import json
 import pytest
 
 from bipedlab import cli
+from helpers import expect_usage_error
 from bipedlab.studies import walk_mabel as wm
 
 
@@ -58,19 +59,6 @@ def test_walk_on_the_nominal_gait_keeps_its_designed_speed(walk_record):
     assert all(t <= c for t, c in zip(r["peak_torques_nm"], (30.0, 55.0, 30.0, 55.0)))
 
 
-def _expect_usage_error(argv, capsys, needle=None):
-    with pytest.raises(SystemExit) as exc:
-        cli.main(argv)
-    assert exc.value.code == 2
-    captured = capsys.readouterr()
-    assert captured.out == ""
-    lines = captured.err.splitlines()
-    assert len(lines) == 1 and lines[0].startswith("bipedlab: error: "), captured.err
-    if needle is not None:
-        assert needle in lines[0], lines[0]
-    return lines[0]
-
-
 @pytest.fixture
 def no_walk(monkeypatch):
     """Bad input must be refused before any simulation, and JAX's configuration kept."""
@@ -83,19 +71,19 @@ def no_walk(monkeypatch):
 
 @pytest.mark.parametrize("push", ["78", "abc@3", "78@-1", "nan@2", "78@1.5"])
 def test_bad_push_is_one_error_line_and_status_2(push, capsys, no_walk):
-    line = _expect_usage_error(["walk", "mabel", "--steps", "3", "--push", push, "--json"], capsys)
+    line = expect_usage_error(["walk", "mabel", "--steps", "3", "--push", push, "--json"], capsys)
     assert "--push" in line
 
 
 def test_unknown_gait_file_is_one_error_line_and_status_2(tmp_path, capsys, no_walk):
     path = tmp_path / "no_such_gait.json"
-    _expect_usage_error(["walk", "mabel", "--gait", str(path), "--steps", "3", "--json"], capsys, needle=str(path))
+    expect_usage_error(["walk", "mabel", "--gait", str(path), "--steps", "3", "--json"], capsys, needle=str(path))
 
 
 def test_gait_file_of_another_format_is_refused(tmp_path, capsys, no_walk):
     path = tmp_path / "other.json"
     path.write_text(json.dumps({"format": "something-else/2"}))
-    _expect_usage_error(["walk", "mabel", "--gait", str(path), "--json"], capsys, needle=str(path))
+    expect_usage_error(["walk", "mabel", "--gait", str(path), "--json"], capsys, needle=str(path))
 
 
 def test_parse_push():

@@ -136,7 +136,7 @@ def outputs(vc: Constraints, phase, qs, qds):
     return controlled(qs) - h, controlled(qds) - dh * thd
 
 
-def stance_coordinates(vc: Constraints, phase, th, b, thd=None, bd=None):
+def stance_coordinates(vc: Constraints, phase, th, b):
     """q_s on the zero-dynamics manifold at (theta, q_Bsp_st), and its theta- and b-derivatives
     (Phi, Phi_theta, Phi_thetatheta); Phi_b is the unit vector on q_Bsp_st."""
     h, dh, ddh = desired_derivatives(vc, phase, th)

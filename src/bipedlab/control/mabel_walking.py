@@ -96,7 +96,7 @@ def feedforward(g: Gains, phase, th):
     return bz.bezier(g.beta[phase], (th - a) / (b - a))
 
 
-def pd_feedforward(vc, phase, y, yd, th, g: Gains):
+def pd_feedforward(phase, y, yd, th, g: Gains):
     """Eq. 43 from the outputs (y, y-dot) and theta."""
     pd = -(g.kp * y + g.kd * yd) * g.signs
     u = feedforward(g, phase, th) + jnp.zeros(4).at[jnp.asarray(ACTUATOR_OF_OUTPUT)].set(pd)
@@ -105,7 +105,7 @@ def pd_feedforward(vc, phase, y, yd, th, g: Gains):
 
 def pdff(m, vc, phase, z, g: Gains):
     y, yd = vcm.outputs(vc, phase, z[:6], z[6:])
-    return pd_feedforward(vc, phase, y, yd, vcm.theta(z[:6]), g)
+    return pd_feedforward(phase, y, yd, vcm.theta(z[:6]), g)
 
 
 def control(kind: str, m, vc, phase, z, g: Gains, terms=None):

@@ -62,15 +62,18 @@ def check_sizes(vc: VirtualConstraints, z_minus, n: int, m: int, source: str) ->
                          f"{vc.H0.shape[0]} outputs; this robot has {n} and {m}")
 
 
-def load(path) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
-    p = Path(path)
+def read_json(path, unreadable: str = "cannot read") -> dict:
+    """The JSON object in a file; ValueError naming the path and the problem."""
     try:
-        d = json.loads(p.read_text())
+        return json.loads(Path(path).read_text())
     except OSError as e:
-        raise ValueError(f"{path}: cannot read ({e.strerror})") from None
+        raise ValueError(f"{path}: {unreadable} ({e.strerror})") from None
     except json.JSONDecodeError as e:
         raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno})") from None
-    return from_dict(d, str(path))
+
+
+def load(path) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
+    return from_dict(read_json(path), str(path))
 
 
 def shipped(name: str):

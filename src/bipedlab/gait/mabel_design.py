@@ -138,7 +138,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0):
     v = step_length / T
     weight = zd.robot_mass() * 9.81
     zs = jnp.concatenate([qss, qdss], 1)
-    grf = jax.vmap(lambda z, u: zd.ground_reaction(m, z, u))(zs, us)
+    grf = jax.vmap(lambda z, u: wk.ground_reaction(m, z, u))(zs, us)
     toe = jax.vmap(lambda z: wk.swing_toe(m, z)[1])(zs)
     n = toe.shape[0]
     interior = (jnp.arange(n) >= 2) & (jnp.arange(n) <= n - 2)

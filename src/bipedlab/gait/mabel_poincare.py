@@ -52,7 +52,7 @@ def _phase_run(f, phase, w, th0, th1, n):
     return zd.integrate(f, phase, w, th0, th1, n)[0]
 
 
-def _after_impact(m, kind, nominal, z_plus, invariant):
+def _after_impact(kind, nominal, z_plus, invariant):
     if kind == "pdff":
         return nominal
     return vcm.update_at_impact(nominal, z_plus[:6], z_plus[6:], nominal, invariant=invariant)
@@ -62,13 +62,13 @@ def full_map(m, kind, g, nominal, z, eta=1.0, invariant=True, nodes=NODES):
     """P(z) of eq. 44 for a stance state z on (or near) theta = theta_si: the state on the
     section after one step."""
     n1, n2, n3, n4 = nodes
-    f_sd = lambda ph, th, w: closed_loop(m, kind, g, nominal)(vcm.SD, th, w)  # noqa: E731
+    f_sd = closed_loop(m, kind, g, nominal)
     th0 = vcm.theta(z[:6])
     w = _phase_run(f_sd, vcm.SD, z, th0, nominal.theta_minus, n4)
     h0 = jnp.zeros(())
     _, z_minus = zd.to_event(lambda th, w: f_sd(vcm.SD, th, w), nominal.theta_minus, w, _toe(m), h0)
     zp = wk.impact(m, z_minus, eta).z_plus
-    vc = _after_impact(m, kind, nominal, zp, invariant)
+    vc = _after_impact(kind, nominal, zp, invariant)
     f = closed_loop(m, kind, g, vc)
     w = _phase_run(f, vcm.MC, zp, vcm.theta(zp[:6]), vc.theta_mc, n1)
     w = _phase_run(f, vcm.SC, w, vc.theta_mc, nominal.theta_sc, n2)
@@ -97,7 +97,7 @@ def restricted_map(m, nominal, x, eta=1.0, nodes=NODES):
     w = _phase_run(f, vcm.MC, w, vc.theta_plus, vc.theta_mc, n1)
     w = _phase_run(f, vcm.SC, w, vc.theta_mc, nominal.theta_sc, n2)
     th_sc, w = zd.to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w,
-                           lambda th, v: v[0] - vcm.SPRING_TRIGGER, jnp.zeros(()))
+                           zd.spring_guard, jnp.zeros(()))
     vc = vc.replace(theta_sc=th_sc)
     f = zd.zero_dynamics(m, vc)
     w = _phase_run(f, vcm.SI, w, th_sc, vc.theta_si, n3)

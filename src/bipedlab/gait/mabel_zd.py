@@ -129,11 +129,6 @@ def spring_guard(th, w):
     return w[0] - vcm.SPRING_TRIGGER
 
 
-def ground_reaction(m, z, u):
-    """(Fx, Fy) on the stance toe at the stance state z under u."""
-    return wk.ground_reaction(m, z, u)
-
-
 def robot_mass() -> float:
     """Mass of the robot without the boom (kg), the M of c_mt (eq. 40)."""
     legs = sum(tb.LINKS[k][0] for k in ("csp", "csh", "thigh", "shin"))

@@ -26,6 +26,7 @@ import numpy as np
 
 from ..control import mabel_vc as vcm
 from ..control import mabel_walking as ctl
+from ..gait import gaitfile
 from ..gait import mabel_design as md
 from ..gait import mabel_poincare as mp
 from ..gait.mabel_zd import robot_mass
@@ -84,14 +85,8 @@ def load_gait(name_or_path: str):
     if name_or_path in GAITS:
         text = resources.files("bipedlab").joinpath("data", f"mabel_{name_or_path}.json").read_text()
         return from_record(json.loads(text), f"bipedlab/data/mabel_{name_or_path}.json")
-    p = Path(name_or_path)
-    try:
-        d = json.loads(p.read_text())
-    except OSError as e:
-        raise ValueError(f"{name_or_path}: not a shipped gait ({', '.join(GAITS)}) and cannot be read ({e.strerror})") from None
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{name_or_path}: not valid JSON ({e.msg} at line {e.lineno})") from None
-    return from_record(d, str(p))
+    d = gaitfile.read_json(name_or_path, f"not a shipped gait ({', '.join(GAITS)}) and cannot be read")
+    return from_record(d, str(name_or_path))
 
 
 def _design_from_record(rec: dict) -> md.Design:
@@ -269,7 +264,7 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
     return s, log, rec
 
 
-def metrics(s, log, rec, steps_done_only=True) -> dict:
+def metrics(s, log) -> dict:
     touched = np.nonzero(log["touched"])[0]
     n = int(s.step)
     t_imp = (touched + 1) * sw.SAMPLE
@@ -290,11 +285,11 @@ def metrics(s, log, rec, steps_done_only=True) -> dict:
 
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
-         out=None, poincare_from_file: bool = True, progress=None) -> dict:
+         out=None, progress=None) -> dict:
     force, step = parse_push(push)
     s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress)
     r = dict(robot="mabel", gait=gait, controller=controller, sensing=sensing, impact_scale=eta,
-             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log, rec))
+             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log))
     pc = rec.get("poincare") or {}
     key = "hzd" if controller != "pdff" else "pdff"
     r["max_abs_eigenvalue"] = pc.get(key, {}).get("max_abs_eigenvalue")

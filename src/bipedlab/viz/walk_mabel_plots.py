@@ -85,7 +85,7 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     _save(plt, fig, out / f"{prefix}gait_toe_com.png", paths)
 
     p_motor = u[:, 1] * qds[:, 1]
-    p_spring = np.asarray([float(wk.spring_torque(m, b, bd, 0)) for b, bd in zip(qs[:, 2], qds[:, 2])]) * qds[:, 2]
+    p_spring = np.asarray(wk.spring_torque(m, jnp.asarray(qs[:, 2]), jnp.asarray(qds[:, 2]), 0)) * qds[:, 2]
     fig, ax = plt.subplots(figsize=(6, 3.5))
     ax.plot(t, p_motor + p_spring, lw=2.0, label="motor + spring (total at the leg shape)")
     ax.plot(t, p_motor, lw=1.0, label="motor")
