@@ -96,19 +96,22 @@ def test_decoupling_matrix_is_the_input_to_output_acceleration_map(gait, fns):
         assert _ydd(vc, p, z, qdd) == pytest.approx(A @ u + lf2, rel=1e-8, abs=1e-8 * np.max(np.abs(lf2)))
 
 
-def test_decentralized_solves_the_diagonal_equations(gait, fns):
-    """Exp. 5: each output's own actuator torque solves A[i, act(i)] u_act(i) = v_i - Lf2_i, the
-    off-diagonal coupling ignored; that is not the full solution."""
+def test_decentralized_feedback_uses_only_the_diagonal(gait, fns):
+    """Exp. 5: u = u* + diag(A)^-1 v with the full eq. 32 feedforward u* = -A^-1 Lf2 h: on the
+    constraint surface (v = 0) it equals the full controller; off it, an output error moves only
+    that output's own actuator, A[i, act(i)] du_act(i) = v_i, unlike the full solve."""
     vc, g, _ = gait
     for p, z in _states(gait, fns):
         y, yd, A, lf2 = (np.asarray(a) for a in fns["decoupling"](vc, p, z))
         v = -(float(g.kp_io) / float(g.eps) ** 2) * y - (float(g.kd_io) / float(g.eps)) * yd
         u = np.asarray(fns["dec"](vc, p, z, g))
         assert np.all(np.abs(u) < np.asarray(g.limit))
-        diag = A[np.arange(4), ACT]
-        assert diag * u[ACT] == pytest.approx(v - lf2, rel=1e-10, abs=1e-10)
+        u_star = np.linalg.solve(A, -lf2)
+        du = u - u_star
+        assert A[np.arange(4), ACT] * du[ACT] == pytest.approx(v, rel=1e-10, abs=1e-10)
         # the decoupling matrix is not diagonal in this pairing, so the answer differs from iolin
         u_full = np.asarray(fns["iolin"](vc, p, z, g))
+        assert u_full - u_star == pytest.approx(np.linalg.solve(A, v), rel=1e-8, abs=1e-10)
         assert np.max(np.abs(u - u_full)) > 1e-3
 
 

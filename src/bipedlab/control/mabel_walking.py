@@ -5,7 +5,9 @@ and V).
   with ``v = -(Kp/eps^2) y - (Kd/eps) y-dot``; with hybrid-invariance corrections (eq. 45) when
   the constraints are updated at impact (:func:`~bipedlab.control.mabel_vc.update_at_impact`).
 - ``decentralized``: the same with the off-diagonal entries of the decoupling matrix zeroed
-  (Exp. 5).
+  in the feedback term (Exp. 5): ``u = u*(x_s) + diag(LgLfh)^-1 v``, where the feedforward
+  ``u* = -(LgLfh)^-1 Lf^2 h`` of eq. 32 keeps the full matrix, so that an error in one output
+  drives only its own motor.
 - ``pdff``: PD plus feedforward (eq. 43), ``u = u*(theta, beta) - Kp y - Kd y-dot`` with u*
   regressed along the designed orbit on 5th-order Béziers in theta per sub-phase (beta) and
   the PD acting through each output's own motor (stance leg-shape motor -> q_mLS_st, swing
@@ -82,9 +84,9 @@ def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False, terms=None):
     y, yd, A, lf2 = decoupling(m, vc, phase, z, terms)
     v = -(g.kp_io / g.eps**2) * y - (g.kd_io / g.eps) * yd
     if decentralized:
-        A = jnp.diag(jnp.diag(A[:, jnp.asarray(ACTUATOR_OF_OUTPUT)]))
-        u_out = (v - lf2) / jnp.diag(A)
-        u = jnp.zeros(4).at[jnp.asarray(ACTUATOR_OF_OUTPUT)].set(u_out)
+        # u*(x_s) of eq. 32 in full; only the feedback sees the diagonal (each output's own motor)
+        act = jnp.asarray(ACTUATOR_OF_OUTPUT)
+        u = jnp.linalg.solve(A, -lf2) + jnp.zeros(4).at[act].set(v / jnp.diag(A[:, act]))
     else:
         u = jnp.linalg.solve(A, v - lf2)
     return jnp.clip(u, -g.limit, g.limit)
