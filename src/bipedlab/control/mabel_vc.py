@@ -160,6 +160,13 @@ def mc_piece(q_plus, qd_plus, thd_plus, theta_plus, theta_mc):
     return jnp.concatenate([q_plus[None], jnp.full(ORDER, rest)]), rest
 
 
+def lean(vc: Constraints, delta):
+    """The constraints with the torso leaned forward by ``delta`` rad (the torso reference
+    lowered by delta, the swing leg-angle reference raised by delta so the swing leg's absolute
+    angle, and thus the step, is unchanged): the knob turned by hand in Exp. 5 to walk faster."""
+    return vc.replace(tor=vc.tor - delta, la_sw=vc.la_sw + delta)
+
+
 def update_at_impact(vc: Constraints, qs_plus, qds_plus, nominal: Constraints, invariant: bool = True):
     """Start-of-step update: theta+ from the state, the stance motor leg shape's MC/SC/SI pieces
     rebuilt from its post-impact (q, qd) (it only stops the motor in MC, holds it in SC and

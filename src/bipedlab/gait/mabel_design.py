@@ -180,9 +180,7 @@ def design_model(m=None):
     """The walking model used for design: the hard stop's stiffening and damping are left out
     (the spring stays compressed along a designed step, an inequality constraint), so a trial
     point that pushes the pulley into the stop does not make the zero dynamics stiff."""
-    m = wk.walking_model() if m is None else m
-    z = jnp.zeros(())
-    return m.replace(drive=m.drive.replace(kd1=z, kvd1=z, kvd2=z))
+    return wk.without_stop(wk.walking_model() if m is None else m)
 
 
 def _scalar_cost(fig, cost):

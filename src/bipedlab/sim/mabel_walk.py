@@ -10,7 +10,10 @@ hip (the push of Exp. 2) acts over the second half of a chosen step.
 Controller: every 1 ms it reads the encoders (quantised to ``2 pi / counts``, or exact with
 ``sensing="ideal"``), differentiates them backward with a first-order filter, advances the
 sub-phase by the guards of eq. 37 with the guard of eq. 50, and computes the torque of the
-chosen controller, saturated. It learns of a touchdown at the next sample: it then restarts
+chosen controller, saturated. The controllers' model leaves out the spring's hard stop (the
+stop is a plant property the gaits are designed to avoid): with it, the stop's stiff damper
+entered Lf^2 h and a pulley reaching its stop at speed drew a saturated one-sample torque
+spike that lifted the stance toe. It learns of a touchdown at the next sample: it then restarts
 MC and, for the I/O-linearising controllers, updates the constraints at the measured
 post-impact state (eqs. 45-47). A backward difference across the touchdown would mix the
 pre- and post-impact rates, so at that sample the rate estimate is the model's transition map
@@ -49,8 +52,10 @@ GAMMA = 0.03
 @dataclasses.dataclass(frozen=True)
 class Setup:
     """A run's fixed data: nominal constraints, controller gains, impact scaling, push force
-    (N, positive forward) and its step index (-1 for none), the nominal step period, and
-    whether the encoders are quantised (1.0) or exact (0.0)."""
+    (N, positive forward) and its step index (-1 for none), the nominal step period,
+    whether the encoders are quantised (1.0) or exact (0.0), and a forward torso lean (rad,
+    :func:`~bipedlab.control.mabel_vc.lean`) reached in ``lean_steps`` equal increments, one
+    per touchdown (Exp. 5)."""
 
     vc: vcm.Constraints
     gains: ctl.Gains
@@ -59,6 +64,8 @@ class Setup:
     push_step: jax.Array
     period: jax.Array
     quantised: jax.Array
+    lean: jax.Array = 0.0
+    lean_steps: jax.Array = 1
 
 
 @jax.tree_util.register_dataclass
@@ -136,7 +143,7 @@ def sample(m, kind: str, setup: Setup, s: State):
         lambda _: VELOCITY_FILTER * s.v_est + (1.0 - VELOCITY_FILTER) * (q - s.q_prev) / SAMPLE, None)
     v = jnp.where(setup.quantised > 0, v, s.z[6:])
     zm = jnp.concatenate([q, v])
-    nominal = setup.vc
+    nominal = vcm.lean(setup.vc, setup.lean * jnp.minimum(s.step / jnp.maximum(setup.lean_steps, 1), 1.0))
     if kind == "pdff":
         vc = jax.tree_util.tree_map(lambda a, b: jnp.where(s.impacted, a, b), nominal, s.vc)
     else:
@@ -145,7 +152,7 @@ def sample(m, kind: str, setup: Setup, s: State):
     phase = jnp.where(s.impacted, vcm.MC, s.phase)
     phase, th_sc = vcm.next_phase(vc, phase, q, v, GAMMA)
     vc = vc.replace(theta_sc=th_sc)
-    u = ctl.control(kind, m, vc, phase, zm, setup.gains)
+    u = ctl.control(kind, wk.without_stop(m), vc, phase, zm, setup.gains)
     f = _hip_force(setup, s)
     y, yd = vcm.outputs(vc, phase, s.z[:6], s.z[6:])
     grf = wk.ground_reaction(m, s.z, u, f)

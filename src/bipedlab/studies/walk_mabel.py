@@ -240,18 +240,19 @@ def parse_push(text: str | None):
     return force, step
 
 
-def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders") -> sw.Setup:
+def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", lean=0.0, lean_steps=1) -> sw.Setup:
     f = lambda v: jnp.asarray(v, float)  # noqa: E731
     return sw.Setup(vc=vc, gains=gains, eta=f(eta), push_force=f(push[0]), push_step=jnp.asarray(push[1]),
-                    period=f(period), quantised=f(1.0 if sensing == "encoders" else 0.0))
+                    period=f(period), quantised=f(1.0 if sensing == "encoders" else 0.0), lean=f(lean),
+                    lean_steps=jnp.asarray(int(lean_steps)))
 
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
-             progress=None):
+             progress=None, lean_deg: float = 0.0, lean_steps: int = 20):
     """Simulate; returns (final state, logs, gait record)."""
     vc, gains, rec = load_gait(gait)
     m = wk.walking_model()
-    setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing)
+    setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
     cb = None
     if progress is not None:
         last = [-1]
@@ -285,10 +286,13 @@ def metrics(s, log) -> dict:
 
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
-         out=None, progress=None) -> dict:
+         out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20) -> dict:
+    """Closed-loop walk; ``lean_deg`` leans the torso forward (swing leg's absolute angle kept)
+    in ``lean_steps`` equal increments, one per step, as the experimenters did to walk faster."""
     force, step = parse_push(push)
-    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress)
+    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps)
     r = dict(robot="mabel", gait=gait, controller=controller, sensing=sensing, impact_scale=eta,
+             torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
              push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log))
     pc = rec.get("poincare") or {}
     key = "hzd" if controller != "pdff" else "pdff"

@@ -106,6 +106,14 @@ def _generalized_forces(m: Mabel, q, qd, u, f_hip=None):
     return gen
 
 
+def without_stop(m: Mabel) -> Mabel:
+    """The model with the spring's hard stop (stiffening and damping of eq. 30) left out: the
+    model that gait design and the walking controllers use, the spring being meant to stay off
+    its stop; the plant keeps the stop."""
+    z = jnp.zeros(())
+    return m.replace(drive=m.drive.replace(kd1=z, kvd1=z, kvd2=z))
+
+
 def constrained(m: Mabel, q, qd, u, f_hip=None):
     """(qdd_e, lam) of the stance dynamics at (q_e, qd_e) under motor torques u."""
     D = cp.mass_matrix(m.body, q)
