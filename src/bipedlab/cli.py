@@ -17,6 +17,7 @@ STUDIES = {
     "walk": "closed-loop HZD walking from a designed gait (five-link, mabel)",
     "experiment": "MABEL's walking experiments: nominal, push, efficient, tracking, impact-scaling, fast, sweep",
     "hop": "two-legged hopping on MABEL's 13-DoF model, with Poincaré analysis (mabel)",
+    "identify": "MABEL's system identification from synthetic experiments or logged data (mabel)",
 }
 
 
@@ -110,6 +111,9 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--push", metavar="FORCE@STEP", help="mabel: horizontal force (N, + forward) on the hip over the second half of step STEP")
     w.add_argument("--impact-scale", type=_positive_float, default=1.0, metavar="ETA",
                    help="mabel: impact scaling eta of Section VI-B (post-impact velocity / eta)")
+    w.add_argument("--lean", type=float, default=0.0, metavar="DEG",
+                   help="mabel: lean the torso forward by DEG degrees (swing leg's absolute angle kept), ramped in over --lean-steps steps, as in Exp. 5")
+    w.add_argument("--lean-steps", type=_positive_int, default=20, metavar="N", help="mabel: steps over which --lean is ramped in (default 20)")
     w.add_argument("--sensing", choices=["encoders", "ideal"], default="encoders",
                    help="mabel: 14-bit encoders with differentiated velocities (default) or the exact state")
     w.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
@@ -135,6 +139,21 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also drop the robot from N perturbed states and count hops with and without the update")
     h.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     h.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+    i = sub.add_parser("identify", help=STUDIES["identify"], description=STUDIES["identify"])
+    i.add_argument("robot", choices=["mabel"])
+    source = i.add_mutually_exclusive_group(required=True)
+    source.add_argument("--synthetic", action="store_true",
+                        help="generate the paper's experiments on a perturbed true robot and identify it")
+    source.add_argument("--data", metavar="DIR", help="identify from the CSV logs in DIR (format: bipedlab.sysid.logs)")
+    i.add_argument("--seed", type=int, default=None, help="synthetic: seed of the true robot and the noise (default 0)")
+    i.add_argument("--noise", type=_nonnegative_float, default=None, metavar="LEVEL",
+                   help="synthetic: rms encoder noise in counts, also scaling amplifier and scale noise (default 1)")
+    i.add_argument("--noise-study", action="store_true",
+                   help="synthetic: also repeat the identification at noise levels 0, 1, 2 and 4")
+    i.add_argument("--quick", action="store_true", help=argparse.SUPPRESS)
+    i.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    i.add_argument("--out", metavar="DIR", help="write figures (PNG) and, for --synthetic, the logs (CSV) to DIR")
     return p
 
 
@@ -169,6 +188,8 @@ def main(argv=None) -> int:
                               progress=_progress)
         _emit(rec, args.json, hop_mabel.summary)
         return 0
+    if args.study == "identify":
+        return _identify(parser, args)
     if args.study == "experiment":
         from .studies import walk_mabel_experiments as wx
 
@@ -180,8 +201,8 @@ def main(argv=None) -> int:
     if args.study == "walk":
         if args.controller not in (None, "iolin", "pd"):
             parser.error(f"five-link: --controller must be iolin or pd, got {args.controller}")
-        if args.push or args.impact_scale != 1.0:
-            parser.error("five-link: --push and --impact-scale apply to mabel only")
+        if args.push or args.impact_scale != 1.0 or args.lean:
+            parser.error("five-link: --push, --impact-scale and --lean apply to mabel only")
         args.controller = args.controller or "iolin"
         args.steps = args.steps or 50
     from .studies import hzd_five_link as hz
@@ -196,6 +217,22 @@ def main(argv=None) -> int:
             parser.error(str(e))
         rec = hz.walk(args.steps, args.perturb, args.controller, args.gait, args.seed, out=args.out, progress=_progress)
         _emit(rec, args.json, hz.summary_walk)
+    return 0
+
+
+def _identify(parser, args) -> int:
+    from .studies import identify_mabel as im
+    from .sysid import LogError
+
+    if args.data is not None and (args.seed is not None or args.noise is not None or args.noise_study):
+        parser.error("--seed, --noise and --noise-study apply to --synthetic only")
+    try:
+        rec = im.study(data=args.data, seed=args.seed or 0, noise=1.0 if args.noise is None else args.noise,
+                       out=args.out, quick=args.quick, noise_levels=(0.0, 1.0, 2.0, 4.0) if args.noise_study else None,
+                       progress=_progress)
+    except LogError as e:
+        parser.error(str(e))
+    _emit(rec, args.json, im.summary)
     return 0
 
 
@@ -218,8 +255,10 @@ def _mabel(parser, args) -> int:
         wm.parse_push(args.push)
     except ValueError as e:
         parser.error(str(e))
+    if not (math.isfinite(args.lean) and abs(args.lean) <= 45.0):
+        parser.error(f"mabel: --lean must be within +-45 degrees, got {args.lean}")
     rec = wm.walk(gait, controller, args.steps or 100, push=args.push, eta=args.impact_scale, sensing=args.sensing,
-                  out=args.out, progress=_progress)
+                  out=args.out, progress=_progress, lean_deg=args.lean, lean_steps=args.lean_steps)
     _emit(rec, args.json, wm.summary_walk)
     return 0
 
