@@ -236,3 +236,17 @@ def test_spring_does_most_of_the_negative_work_at_the_stance_leg_shape(nominal):
     assert fig["negative_work_fraction_spring"] > 0.5
     assert fig["negative_work_fraction_spring"] == pytest.approx(
         fig["neg_work_spring"] / (fig["neg_work_spring"] + fig["neg_work_motor"]), rel=1e-12)
+
+
+def test_lean_tilts_the_torso_and_keeps_the_swing_leg_absolute_angle(vc):
+    """Exp. 5's lean: the torso reference drops by delta in every sub-phase while the swing leg's
+    absolute angle (torso + leg angle) and the leg-shape references are unchanged."""
+    delta = 0.3
+    leaned = vcm.lean(vc, delta)
+    for phase in (vcm.MC, vcm.SC, vcm.SI, vcm.SD):
+        for th in np.linspace(float(vc.theta_plus), float(vc.theta_minus), 7):
+            h0 = np.asarray(vcm.desired(vc, phase, th))
+            h1 = np.asarray(vcm.desired(leaned, phase, th))
+            assert h1[3] == pytest.approx(h0[3] - delta, abs=1e-12)
+            assert h1[1] + h1[3] == pytest.approx(h0[1] + h0[3], abs=1e-12)
+            assert h1[[0, 2]] == pytest.approx(h0[[0, 2]], abs=1e-12)
