@@ -135,10 +135,9 @@ def fast(steps, progress, out):
     total = FAST_LEAN_STEPS + n
     r = _walk("nominal", "iolin", total, progress, out=out, lean_deg=FAST_LEAN_DEG, lean_steps=FAST_LEAN_STEPS)
     r.update(_after_ramp(r, FAST_LEAN_STEPS))
-    sp = np.asarray(r["speed_per_step"][FAST_LEAN_STEPS:])
     r.update(experiment="fast", within_torque_limits=bool(all(
         t <= c + 1e-9 for t, c in zip(r["peak_torques_nm"], [30.0, 55.0, 30.0, 55.0]))),
-        target_met=bool(not r["fell"] and sp.size >= n and r["speed_after_lean_mps"] >= FAST_TARGET_MPS),
+        target_met=bool(not r["fell"] and r["steps_after_lean"] >= n and r["speed_after_lean_mps"] >= FAST_TARGET_MPS),
         paper=dict(sustained_speed_mps=1.5, top_speed_mps=1.52, start_speed_mps=1.15))
     comp = {}
     d = _walk("nominal", "decentralized", total, progress, lean_deg=FAST_LEAN_DEG, lean_steps=FAST_LEAN_STEPS)

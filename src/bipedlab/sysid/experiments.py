@@ -44,7 +44,7 @@ from ..control import hopping as hop
 from ..robots.mabel import dynamics as md
 from ..robots.mabel import model as mm
 from ..robots.mabel import tables as tb
-from ..robots.mabel import transmission as tr
+from ..studies import hop_mabel as hm
 from . import balance, springs
 from . import params as P
 from . import rigs
@@ -53,8 +53,8 @@ from .sensors import PERIOD, Sensors
 
 _H = {c: i for i, c in enumerate(mm.COORDS_13)}
 #: Hop simulation step and steps per 1 ms sample (as in studies.hop_mabel).
-HOP_DT = 5e-5
-HOP_SUBSTEPS = 20
+HOP_DT = hm.DT
+HOP_SUBSTEPS = hm.SUBSTEPS
 
 
 @dataclasses.dataclass(frozen=True)
@@ -283,42 +283,20 @@ def balance_experiments(p: P.MabelParams, sensors: Sensors, design: Design = Des
 
 
 # ----- Section VIII -------------------------------------------------------------------------
-def _sense(m: mm.Mabel, p: hop.HopParams, x):
-    q, qd = x[:13], x[13:26]
-    h = jnp.stack([q[_H[c]] for c in ("la_L", "mls_L", "la_R", "mls_R")])
-    toes = md.toe_positions(m, q)[:, 1]
-    return h, q[_H["tor"]], toes, q[_H["x"]] / p.boom_radius, qd[_H["y"]] / p.boom_radius
-
-
 def _hop_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, W):
-    """Closed loop with amplifier noise W (steps, 4): states at t_k and commands u_k."""
+    """Closed loop with amplifier noise W (steps, 4): states at t_k and commands u_k. The
+    hopping study's control sample, the noise added to each held command."""
 
     def sample(carry, w):
         x, c = carry
-        c_new, u = hop.update(p, c, *_sense(m, p, x))
-        xn = jax.lax.fori_loop(0, HOP_SUBSTEPS, lambda _, x: md.step(m, x, u + w, HOP_DT), x)
+        xn, c_new, u = hm.control_sample(m, p, x, c, HOP_DT, HOP_SUBSTEPS,
+                                         lambda m_, x_, u_, h: md.step(m_, x_, u_ + w, h))
         return (xn, c_new), (x, u)
 
     return jax.lax.scan(sample, (x0, c0), W)[1]
 
 
 _hop_loop_jit = jax.jit(_hop_loop)
-
-
-def hop_initial_state(m: mm.Mabel, p: hop.HopParams, clearance: float = 0.02) -> jax.Array:
-    """At rest in the air, legs at the flight targets x^d, springs and cables unloaded, toes
-    ``clearance`` above the floor (the start of studies.hop_mabel's runs)."""
-    xd = np.asarray(hop.nominal_targets(p, p.h_tor0))
-    q = np.zeros(13)
-    q[_H["tor"]] = float(p.h_tor0)
-    for k, s in enumerate(tb.SIDES):
-        la, mls = xd[2 * k], xd[2 * k + 1]
-        ls = float(tr.leg_shape(mls, 0.0))
-        q[_H[f"la_{s}"]], q[_H[f"ls_{s}"]], q[_H[f"mls_{s}"]] = la, ls, mls
-        q[_H[f"mla_{s}"]] = float(tr.rigid_motor_angles(la, ls, 0.0)[0])
-    toes = np.asarray(md.toe_positions(m, jnp.asarray(q)))
-    q[_H["y"]] = clearance - toes[:, 1].min()
-    return jnp.concatenate([jnp.asarray(q), jnp.zeros(13), jnp.zeros(2)])
 
 
 def hop_encoders(x: np.ndarray) -> dict:
@@ -335,8 +313,8 @@ def hopping_experiment(p: P.MabelParams, sensors: Sensors, design: Design = Desi
     for ``hop_hold`` s (commands zero), then released: drop, landing, kick-off and flight."""
     m = P.model(p)
     hp = hop.paper_params()
-    x0 = hop_initial_state(m, hp)
-    c0 = hop.initial_state(hp, _sense(m, hp, x0)[0])
+    x0 = hm.initial_state(m, hp)
+    c0 = hop.initial_state(hp, hm._sense(m, hp, x0)[0])
     n = int(round(design.hop_seconds / PERIOD))
     hold = int(round(design.hop_hold / PERIOD))
     name = "hopping"

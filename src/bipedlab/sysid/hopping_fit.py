@@ -44,11 +44,10 @@ from ..robots.mabel import model as mm
 from ..robots.mabel import tables as tb
 from . import params as P
 from . import rigs
+from .experiments import HOP_DT, HOP_SUBSTEPS
 from .logs import HOP_ENCODERS, Experiment, motor_encoder
 
 _H = {c: i for i, c in enumerate(mm.COORDS_13)}
-HOP_DT = 5e-5
-HOP_SUBSTEPS = 20
 #: A parameter counts as identified when its 1-sigma relative error is below this.
 IDENTIFIABLE = 0.1
 #: Variables of stage 2: (name, how it is applied), all positive (fitted in log scale).
