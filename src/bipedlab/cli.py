@@ -14,11 +14,16 @@ import sys
 STUDIES = {
     "bench": "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
     "optimize": "design a periodic HZD walking gait by optimisation (five-link, mabel)",
-    "walk": "closed-loop HZD walking from a designed gait (five-link, mabel)",
-    "experiment": "MABEL's walking experiments: nominal, push, efficient, tracking, impact-scaling, fast, sweep",
+    "walk": "closed-loop walking: HZD from a designed gait (five-link, mabel), nonkinematic (seven-link)",
+    "experiment": "walking experiments: mabel nominal|push|efficient|tracking|impact-scaling|fast|sweep; seven-link free-swing|low-gain-pd",
+    "run": "spring-mass running embedded in the articulated ATRIAS-like biped on unobserved terrain (atrias)",
     "hop": "two-legged hopping on MABEL's 13-DoF model, with Poincaré analysis (mabel)",
     "identify": "MABEL's system identification from synthetic experiments or logged data (mabel)",
 }
+
+
+MABEL_EXPERIMENTS = ["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep"]
+SEVEN_LINK_EXPERIMENTS = ["free-swing", "low-gain-pd"]
 
 
 class _Parser(argparse.ArgumentParser):
@@ -100,8 +105,10 @@ def build_parser() -> argparse.ArgumentParser:
     o.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
     w = sub.add_parser("walk", help=STUDIES["walk"], description=STUDIES["walk"])
-    w.add_argument("robot", choices=["five-link", "mabel"])
-    w.add_argument("--steps", type=_positive_int, default=None, help="number of steps (five-link 50, mabel 100)")
+    w.add_argument("robot", choices=["five-link", "mabel", "seven-link"])
+    w.add_argument("--steps", type=_positive_int, default=None, help="number of steps (five-link 50, mabel 100, seven-link 30)")
+    w.add_argument("--params", choices=["paper", "tuned"], default=None,
+                   help="seven-link: the controller's Table II parameters as published, or retuned for the planar model (default tuned)")
     w.add_argument("--perturb", type=_nonnegative_float, default=0.0,
                    help="five-link: relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
     w.add_argument("--controller", choices=["iolin", "pd", "pdff", "decentralized"], default=None,
@@ -121,8 +128,9 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
     e = sub.add_parser("experiment", help=STUDIES["experiment"], description=STUDIES["experiment"])
-    e.add_argument("robot", choices=["mabel"])
-    e.add_argument("name", choices=["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep"])
+    e.add_argument("robot", choices=["mabel", "seven-link"])
+    e.add_argument("name", choices=MABEL_EXPERIMENTS + SEVEN_LINK_EXPERIMENTS,
+                   help="mabel: " + " | ".join(MABEL_EXPERIMENTS) + "; seven-link: " + " | ".join(SEVEN_LINK_EXPERIMENTS))
     e.add_argument("--steps", type=_positive_int, default=None, help="steps per walk (defaults per experiment)")
     e.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     e.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
@@ -139,6 +147,30 @@ def build_parser() -> argparse.ArgumentParser:
                    help="also drop the robot from N perturbed states and count hops with and without the update")
     h.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     h.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+    r = sub.add_parser("run", help=STUDIES["run"], description=STUDIES["run"])
+    r.add_argument("robot", choices=["atrias"])
+    r.add_argument("--terrain", choices=["flat", "rough", "slope"], default="flat",
+                   help="flat ground, random steps every 3 m, or a constant slope (default flat)")
+    r.add_argument("--step-height", type=_nonnegative_float, default=None, metavar="H",
+                   help="rough: largest step height in m, steps uniform in [-H, H] (default 0.25)")
+    r.add_argument("--slope", type=float, default=None, metavar="PCT", help="slope: grade in percent (default 1)")
+    span = r.add_mutually_exclusive_group()
+    span.add_argument("--seconds", type=_positive_float, default=None, metavar="T", help="simulated time in s")
+    span.add_argument("--distance", type=_positive_float, default=None, metavar="D",
+                      help="distance to run in m (default 60)")
+    r.add_argument("--noise", action="store_true",
+                   help="sensor noise of Section IV-C: +-3 deg, +-3 deg/s, +-3 cm, +-3 cm/s, sampled every 3 ms")
+    r.add_argument("--delay-ms", type=_nonnegative_float, default=0.0, metavar="MS", help="sensing delay in ms")
+    r.add_argument("--model-error", nargs="+", action="extend", default=[], metavar="NAME=REL",
+                   help="relative error of a model parameter the controller assumes, e.g. mass=0.2 inertia=-0.5")
+    r.add_argument("--energy", choices=["conservation", "regulation"], default="regulation",
+                   help="stance energy management (default regulation)")
+    r.add_argument("--trials", type=_positive_int, default=None, metavar="N",
+                   help="run N random terrains (and noise / model-error draws) batched in one compiled call")
+    r.add_argument("--seed", type=int, default=0, help="seed of the terrain and noise draws")
+    r.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    r.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
     i = sub.add_parser("identify", help=STUDIES["identify"], description=STUDIES["identify"])
     i.add_argument("robot", choices=["mabel"])
@@ -190,12 +222,24 @@ def main(argv=None) -> int:
         return 0
     if args.study == "identify":
         return _identify(parser, args)
+    if args.study == "run":
+        from .studies import run_atrias
+
+        return run_atrias.cli_main(parser, args)
+    if getattr(args, "robot", None) == "seven-link":
+        from .studies import walk_seven_link
+
+        return walk_seven_link.cli_main(parser, args)
     if args.study == "experiment":
+        if args.name not in MABEL_EXPERIMENTS:
+            parser.error(f"mabel: experiment must be one of {', '.join(MABEL_EXPERIMENTS)}, got {args.name}")
         from .studies import walk_mabel_experiments as wx
 
         rec = wx.run(args.name, steps=args.steps, out=args.out, progress=_progress)
         _emit(rec, args.json, wx.summary)
         return 0
+    if getattr(args, "params", None) is not None:
+        parser.error("--params applies to seven-link only")
     if getattr(args, "robot", None) == "mabel":
         return _mabel(parser, args)
     if args.study == "walk":
