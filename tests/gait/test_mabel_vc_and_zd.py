@@ -62,6 +62,26 @@ def test_constraints_are_C1_across_sub_phases(vc, before, after, where):
     assert vc.theta_plus < vc.theta_mc < vc.theta_sc < vc.theta_si < vc.theta_minus
 
 
+def test_swing_constraints_saturate_past_theta_minus_and_stay_C2(vc):
+    """Past theta- the swing constraints follow their polynomial, then hold a pose instead of
+    extrapolating (a late touchdown after a push): h, dh, d2h continuous at the joint, h
+    bounded and dh -> 0 well past it; before theta- nothing changed."""
+    bez = lambda th: np.asarray(vcm.bz.bezier(vc.la_sw, (th - vc.theta_plus) / (vc.theta_minus - vc.theta_plus)))  # noqa: E731
+    w = float(vc.theta_minus - vc.theta_plus)
+    inside = float(vc.theta_minus) - 0.3 * w
+    assert float(_dd(vc, vcm.SD, inside)[0][1]) == pytest.approx(float(bez(inside)), abs=1e-12)
+    th_knee = vc.theta_minus + vcm.OVERRUN * w
+    eps = 1e-10
+    lo, hi = (tuple(np.asarray(a)[1:3] for a in _dd(vc, vcm.SD, th_knee + d)) for d in (-eps, eps))
+    for a, b in zip(lo, hi):
+        assert b == pytest.approx(a, rel=1e-4, abs=1e-4)
+    far = [np.asarray(a)[1:3] for a in _dd(vc, vcm.SD, vc.theta_minus + 0.5 * w)]
+    assert np.all(np.abs(far[1]) < 1e-6 * np.abs(np.asarray(_dd(vc, vcm.SD, vc.theta_minus)[1])[1:3]) + 1e-9)
+    # the polynomial itself would have kept swinging far away
+    extrapolated = bez(vc.theta_minus + 0.5 * w)
+    assert abs(float(extrapolated) - float(far[0][0])) > 0.1
+
+
 def test_stance_leg_shape_changes_across_the_step(vc):
     """The sub-phase pieces are not all one constant: the stance motor leg shape at the
     start of SC and at the end of SI differ (the injection phase moves it)."""

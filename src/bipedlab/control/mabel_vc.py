@@ -17,6 +17,15 @@ phase (eq. 51-52), joined C¹:
   rest at ``tor[5]``, held there in SD;
 - swing leg angle and motor leg shape: one Bézier each over the whole step [theta+, theta-].
 
+Outside its phase interval no piece is extrapolated for long: beyond s = 1 + ``OVERRUN`` (or
+below -``OVERRUN``) its normalised phase saturates smoothly (C²) within about
+``OVERRUN_WIDTH`` more, so past theta- (a touchdown later than designed, e.g. under a forward
+push) the swing leg holds its touchdown pose while the hip descends onto it, and a step that
+starts behind theta+ holds the first values. Extrapolated quintics swung the leg forward and
+up so the toe skimmed over the ground (measured: a 30 N push, the toe missed it by 2 mm and the
+robot fell), and after a late touchdown the MC piece read hundreds of radians. Near the
+interval nothing changes, so the designed gaits and their Poincaré maps are untouched.
+
 Transitions (eq. 37): MC -> SC at theta_mc, SC -> SI when the stance spring decompresses
 through 5 deg, SI -> SD at theta_si, SD -> MC at swing-toe touchdown. The guarded variant
 (eq. 50) also fires SC -> SI at ``theta_sc + gamma`` and ignores the spring trigger before
@@ -46,6 +55,9 @@ OUTPUTS = ("mLS_st", "LA_sw", "mLS_sw", "Tor")
 H0_INDEX = (1, 3, 4, 5)
 SPRING_TRIGGER = jnp.deg2rad(5.0)
 ORDER = 5
+#: pieces follow their polynomial on [-OVERRUN, 1 + OVERRUN], then saturate
+OVERRUN = 0.0
+OVERRUN_WIDTH = 0.02
 
 
 @jax.tree_util.register_dataclass
@@ -91,8 +103,17 @@ def controlled(qs):
     return qs[jnp.asarray(H0_INDEX)]
 
 
+def saturated_phase(th, a, b):
+    """s = (theta - a) / (b - a) on [-OVERRUN, 1 + OVERRUN], saturating smoothly outside at
+    about OVERRUN_WIDTH further (tanh: value, slope and curvature continuous at the joints)."""
+    s = (th - a) / (b - a)
+    hi, lo = 1.0 + OVERRUN, -OVERRUN
+    sat = lambda x: OVERRUN_WIDTH * jnp.tanh(x / OVERRUN_WIDTH)  # noqa: E731
+    return jnp.where(s > hi, hi + sat(s - hi), jnp.where(s < lo, lo + sat(s - lo), s))
+
+
 def _bez(alpha, th, a, b):
-    return bz.bezier(alpha, (th - a) / (b - a))
+    return bz.bezier(alpha, saturated_phase(th, a, b))
 
 
 def _smoothstep(s):

@@ -93,9 +93,9 @@ def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False, terms=None):
 
 
 def feedforward(g: Gains, phase, th):
-    """u*(theta, beta) of eq. 43."""
+    """u*(theta, beta) of eq. 43 (phase saturated outside its interval as the constraints are)."""
     a, b = g.beta_bounds[phase, 0], g.beta_bounds[phase, 1]
-    return bz.bezier(g.beta[phase], (th - a) / (b - a))
+    return bz.bezier(g.beta[phase], vcm.saturated_phase(th, a, b))
 
 
 def pd_feedforward(phase, y, yd, th, g: Gains):

@@ -2,7 +2,8 @@
 
 - ``nominal`` (Exp. 1): the nominal gait under PD + feedforward, 1 kHz, 14-bit encoders.
 - ``push`` (Exp. 2): about 78 N forward and 71 N backward on the hip over the second half of a
-  step; speed per step, the peak change and the steps back to within 2 % of the unpushed speed.
+  step under PD + feedforward, and smaller pushes under the decentralised HZD controller; speed
+  per step, the peak change and the steps back to within 2 % of the unpushed speed.
 - ``efficient`` (Exp. 3): the c_mt-optimal gait; realised versus designed c_mt and the power at
   the stance leg shape (motor and spring).
 - ``tracking`` (Exps. 4-5): the nominal gait under PD + feedforward, I/O linearisation with
@@ -28,7 +29,10 @@ from . import walk_mabel as wm
 
 NAMES = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep")
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
-PUSHES = ((78.0, 10), (-71.0, 10))
+PUSHES = (78.0, -71.0)
+#: pushes the decentralised HZD controller survives in this model (N, + forward)
+HZD_PUSHES = (30.0, -40.0)
+PUSH_STEP = 10
 SWEEP_SPEEDS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6)
 
 
@@ -54,17 +58,25 @@ def nominal(steps, progress, out):
 
 
 def push(steps, progress, out):
-    steps = steps or 40
-    base = _walk("nominal", "pdff", steps, progress)
-    ref = float(np.mean(base["speed_per_step"][5:]))
+    """Exp. 2: the paper's estimated forces (+78 N / -71 N over the second half of step
+    PUSH_STEP) under PD + feedforward, the experiment's controller; and, since in this model
+    PD + FF does not survive forward pushes, pushes of ``HZD_PUSHES`` under the decentralised
+    compliant-HZD controller. Each push is a separate walk; the reference is the same
+    controller's unpushed speed."""
+    steps = steps or 30
     runs = []
-    for force, k in PUSHES:
-        r = _walk("nominal", "pdff", steps, progress, push=f"{force}@{k}", out=out)
-        peak, back = _recovery(r["speed_per_step"], k, ref)
-        runs.append(dict(force_n=force, step=k, fell=r["fell"], speed_per_step=r["speed_per_step"],
-                         peak_speed_change=peak, steps_to_recover=back))
-    return dict(experiment="push", unpushed_speed_mps=ref, runs=runs,
-                paper=dict(forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
+    for controller, pushes in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
+        base = _walk("nominal", controller, steps, progress)
+        ref = float(np.mean(base["speed_per_step"][5:]))
+        for force in pushes:
+            r = _walk("nominal", controller, steps, progress, push=f"{force}@{PUSH_STEP}",
+                      out=f"{out}/{controller}_{force:+.0f}N" if out else None)
+            peak, back = _recovery(r["speed_per_step"], PUSH_STEP, ref)
+            runs.append(dict(controller=controller, force_n=force, step=PUSH_STEP, fell=r["fell"],
+                             steps_completed=r["steps_completed"], unpushed_speed_mps=ref,
+                             speed_per_step=r["speed_per_step"], peak_speed_change=peak, steps_to_recover=back))
+    return dict(experiment="push", runs=runs,
+                paper=dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
                            backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3)))
 
 
@@ -212,11 +224,13 @@ def summary(r: dict) -> str:
                      f"paper 0.0385 / 0.0452, realised on the robot 0.14")
         return text
     if name == "push":
-        lines = [f"unpushed speed {r['unpushed_speed_mps']:.3f} m/s"]
+        lines = []
         for x in r["runs"]:
             pk = "n/a" if x["peak_speed_change"] is None else f"{100 * x['peak_speed_change']:+.0f} %"
-            lines.append(f"push {x['force_n']:+.0f} N at step {x['step']}: peak speed change {pk}, "
-                         f"back within 2 % after {x['steps_to_recover']} steps{' (FELL)' if x['fell'] else ''}")
+            end = f"FELL in step {x['steps_completed']}" if x["fell"] else \
+                f"back within 2 % after {x['steps_to_recover']} steps"
+            lines.append(f"{x['controller']:>13} push {x['force_n']:+.0f} N at step {x['step']} (unpushed "
+                         f"{x['unpushed_speed_mps']:.3f} m/s): peak speed change {pk}, {end}")
         lines.append("paper: +45 % recovering over ~10 steps (78 N), -45 % over ~3 (71 N)")
         return "\n".join(lines)
     if name == "tracking":
