@@ -1,0 +1,312 @@
+"""Controller embedding the spring-mass model in the articulated running robot (running paper,
+Section III): flight LQR with the momentum-compensated reference (III-C), stance energy
+regulation by stiffness modulation (eq. 7) and inverse dynamics (eq. 8) with pitch and
+mean-hip-angle feedback (III-D), the sliding transition (III-E), swing-leg length control
+(III-F) and mode switching (III-G).
+
+``control(cp, cs, meas) -> (cs, u)`` is a pure function of the controller parameters, its
+memory and one measurement; u = (tau1, tau2, F1, F2) in robot leg order.
+
+Choices where the paper is silent or ambiguous (documented, see the study's report):
+- the landing hip angle uses the exact geometry g_a* = atan2(l0 cos a + d sin th,
+  -l0 sin a + d cos th) instead of the paper's small-offset expression;
+- the compensated reference (whose algebra the paper omits) keeps g_a* and moves only the
+  trunk reference, to the minimiser of w_theta (th - th*)^2 + w_phi (phi - pi)^2 on the
+  reachable set of the conserved momentum (:func:`running_model.compensated_reference`);
+- stiffness modulation f = k0 (l0 - l_v) - c dE (l0 - l_v) l_v' (the paper's k = k0 + c dE l_v
+  read with the leg-length rate so the extra work -c dE int (l0 - l_v) l_v'^2 dt opposes dE);
+  c is set so that the nominal stance would remove ``energy_gain`` of dE; dE adds
+  ``ki_energy`` times the sum of past lift-off errors (integral action, clipped), which removes
+  the steady error that the per-step losses (foot sliding, ground damping) leave otherwise;
+  dE is clipped to +-dE_max and the stiffness change to +-k_mod_max of k0, because the work
+  integral, and so the realised gain, grows steeply in the hard landings after step downs;
+- stance feedback (:func:`_stance_feedback`): tau_a = tau_a,ff - l/(l+d) (tau_b,fb +
+  I_t (Kp (th* - th) - Kd th')), tau_b = tau_b,ff + tau_b,fb: with a stationary foot a hip
+  torque turns the GRF, so in these coordinates (those of the paper's eqs. 3, 4) the printed
+  +Kp (th* - th) in tau_1 would destabilise the pitch;
+- sliding -> stance: |x_r' - x_a| < 10 % x_a and the stance command itself within the
+  friction cone (|F_x*| <= mu F_y*), standing in for "the slipping dynamics reduce the speed
+  difference";
+- swing-leg length: the trailing foot is held at 50 % of the COM height above the last
+  stance foot, the landing leg blends to the landing length as the landing-angle error falls
+  below 0.4 rad (full landing length below 0.1 rad), after the flight apex (t_extend = 0; an
+  earlier extension made early landings on step-ups worse in our tests);
+- lift-off (l_v > rest length, extending) only counts once the virtual leg was compressed by
+  c_min = 2 cm since touchdown or t_stance_min = 40 ms have passed: with delayed or noisy
+  sensing the state right after touchdown otherwise can look like a lift-off, and a grazing
+  contact that never compresses the leg still ends;
+- a landing with a short virtual leg (early, on a step-up) sets that stance's rest length to
+  the touchdown length (at least 0.8 l0) instead of starting with a pre-compressed spring.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from . import running_model as rm
+from . import slip
+
+FLIGHT, SLIDING, STANCE = 0, 1, 2
+
+
+class CtrlParams(NamedTuple):
+    mp: rm.ModelParams
+    smm: slip.SlipParams          # k0 here is the stiffness the stance control realises
+    policy: slip.SwingPolicy
+    y_apex: float
+    speed: float
+    theta_star: float
+    K: jax.Array                  # flight LQR gain (2x4)
+    tau_max: float
+    regulation: bool              # energy regulation (True) or conservation (False)
+    c_energy: float
+    kp_theta: float = 300.0
+    kd_theta: float = 40.0
+    kp_phi: float = 100.0
+    kd_phi: float = 60.0
+    w_theta: float = 4.0
+    w_phi: float = 1.0
+    kp_leg: float = 3000.0
+    kd_leg: float = 70.0
+    l_min: float = 0.4
+    f_swing_max: float = 250.0
+    t_extend: float = 0.0
+    l_rest_min: float = 0.8
+    c_min: float = 0.02
+    t_stance_min: float = 0.04
+    dt: float = 1e-3
+    ki_energy: float = 0.3
+    e_int_max: float = 600.0
+    dE_max: float = 150.0
+    k_mod_max: float = 0.5
+
+
+class CtrlState(NamedTuple):
+    mode: jax.Array       # FLIGHT / SLIDING / STANCE
+    leg: jax.Array        # index of the stance (or landing) leg
+    dE: jax.Array         # energy error measured at the last lift-off (J)
+    xa: jax.Array         # estimated apex speed (m/s)
+    y_ground: jax.Array   # height of the last stance foot (m, sensed)
+    e_int: jax.Array      # sum of the lift-off energy errors (J), the integral action
+    l_rest: jax.Array     # virtual rest length of this stance (m)
+    compressed: jax.Array # the virtual leg was compressed by c_min since touchdown
+    n_stance: jax.Array   # controller samples since touchdown
+
+
+class Meas(NamedTuple):
+    q: jax.Array          # (7,) sensed coordinates
+    qd: jax.Array         # (7,)
+    contact: jax.Array    # (2,) foot contact switches
+    foot_y_true: jax.Array  # (2,) true foot heights (unused: conservation takes the global COM height)
+
+
+def init_state(cp: CtrlParams, leg: int = 0) -> CtrlState:
+    i32 = lambda v: jnp.asarray(v, jnp.int32)
+    f64 = lambda v: jnp.asarray(v, jnp.float64)
+    return CtrlState(i32(FLIGHT), i32(leg), f64(0.0), f64(cp.speed), f64(0.0), f64(0.0), f64(cp.smm.l0), jnp.asarray(False), i32(0))
+
+
+def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=1.05,
+                speed=5.0, theta_star=np.deg2rad(10.0), tau_max=250.0, regulation=True, energy_gain=0.5,
+                Q=(4e5, 4e5, 100.0, 100.0), R=(1.0, 1.0), stiffness_scale=1.0) -> CtrlParams:
+    """Controller parameters; the flight LQR gain from the reduced system (A_r, B_r)."""
+    A, B = rm.flight_reduced_system(mp.I_t, mp.I_m)
+    K = rm.lqr_gain(A, B, np.diag(Q), np.diag(R))
+    c = energy_gain / _nominal_work_integral(smm, y_apex, speed)
+    smm_applied = smm._replace(k0=smm.k0 * stiffness_scale)
+    return CtrlParams(mp, smm_applied, policy, y_apex, speed, float(theta_star), jnp.asarray(K), tau_max,
+                      bool(regulation), float(c))
+
+
+def _nominal_work_integral(smm, y_apex, speed, dt=1e-4):
+    """int (l0 - l) l'^2 dt over the periodic SMM stance (so c dE times it is the energy
+    removed per stance)."""
+    gait = slip.Gait(y_apex, speed)
+    a = slip.periodic_angle(smm, gait)
+    s, _ = slip.touchdown_state(smm, y_apex, speed, a)
+    s = np.asarray(s)
+    f = lambda s: np.asarray(slip.stance_flow(smm, jnp.asarray(s)))
+    total = 0.0
+    for _ in range(20000):
+        l = np.linalg.norm(s[:2])
+        ld = s[:2] @ s[2:] / l
+        total += (smm.l0 - l) * ld * ld * dt
+        s = s + dt * f(s)
+        if np.linalg.norm(s[:2]) >= smm.l0 and s[:2] @ s[2:] > 0:
+            break
+    return total
+
+
+def _local(v, leg):
+    """Robot order (x, y, th, g1, g2, l1, l2) -> local (x, y, th, g_a, g_b, l_a, l_b)."""
+    sw = jnp.array([0, 1, 2, 4, 3, 6, 5])
+    return jnp.where(leg == 0, v, v[sw])
+
+
+def landing_hip_angle(cp, theta, alpha):
+    l0, d = cp.smm.l0, cp.mp.d
+    return jnp.arctan2(l0 * jnp.cos(alpha) + d * jnp.sin(theta), -l0 * jnp.sin(alpha) + d * jnp.cos(theta))
+
+
+def landing_length(cp, theta, gamma):
+    """Physical leg length that puts the foot at l0 from the COM."""
+    d, l0 = cp.mp.d, cp.smm.l0
+    c = jnp.cos(gamma - theta)
+    return d * c + jnp.sqrt(jnp.maximum(l0 ** 2 - d ** 2 * (1 - c ** 2), 0.0))
+
+
+def _leg_pd(cp, l_target, l, ld):
+    """Swing-leg length PD, saturated at f_swing_max: an unsaturated retraction right after
+    lift-off, while the foot still touches the ground, pulls the trunk down."""
+    return jnp.clip(cp.kp_leg * (l_target - l) - cp.kd_leg * ld, -cp.f_swing_max, cp.f_swing_max)
+
+
+def _tuck_length(cp, q, y_ground, gamma):
+    """Trailing-leg length putting the foot at 50 % of the COM height above the ground."""
+    hip_y = q[1] - cp.mp.d * jnp.cos(q[2])
+    foot_h = 0.5 * (q[1] - y_ground)
+    l = (hip_y - (y_ground + foot_h)) / jnp.maximum(-jnp.cos(gamma), 0.3)
+    return jnp.clip(l, cp.l_min, 1.0)
+
+
+def flight_command(cp, cs, q, qd):
+    """Flight (III-C, III-F) in local coordinates: (tau_a, tau_b, F_a, F_b) and the target
+    landing angle/hip angle for logging."""
+    mp = cp.mp
+    t = -qd[1] / mp.g                                  # time since the flight apex
+    alpha = slip.policy_angle(cp.policy, t)
+    alpha_d = slip.policy_rate(cp.policy, t)
+    ga_star, dga = jax.jvp(lambda a: landing_hip_angle(cp, q[2], a), (alpha,), (alpha_d,))
+    H = mp.I_t * qd[2] + mp.I_m * (qd[3] + qd[4])
+    C = mp.I_t * q[2] + mp.I_m * (q[3] + q[4])
+    th_dag, thd_dag = rm.compensated_reference(mp, cp.theta_star, C, H, cp.w_theta, cp.w_phi)
+    xr = jnp.array([q[2], q[3], qd[2], qd[3]])
+    xr_dag = jnp.array([th_dag, ga_star, thd_dag, dga])
+    tau = -cp.K @ (xr - xr_dag)
+    # leg lengths: the landing leg blends from tucked to landing length after apex
+    l_land = landing_length(cp, q[2], ga_star)
+    err = jnp.abs(ga_star - q[3])
+    w = jnp.where(t > -cp.t_extend, jnp.clip((0.4 - err) / 0.3, 0.0, 1.0), 0.0)
+    la_t = w * l_land + (1 - w) * _tuck_length(cp, q, cs.y_ground, q[3])
+    lb_t = _tuck_length(cp, q, cs.y_ground, q[4])
+    F = jnp.array([_leg_pd(cp, la_t, q[5], qd[5]), _leg_pd(cp, lb_t, q[6], qd[6])])
+    return jnp.concatenate([tau, F]), alpha
+
+
+def _spring_force(cp, cs, q6, qd6):
+    """Eq. (7) with the stiffness modulation: target GRF (2,) and l_v."""
+    r = rm.virtual_leg(cp.mp, q6)
+    lv = jnp.linalg.norm(r)
+    J = rm.jac6(cp.mp, q6)
+    # l_v' = rate of the foot-to-COM distance (COM velocity relative to the foot, along r)
+    lvd = jnp.dot(r, qd6[:2] - J @ qd6) / lv
+    dl = cs.l_rest - lv
+    mod = jnp.clip(cp.c_energy * cs.dE * lvd / cp.smm.k0, -cp.k_mod_max, cp.k_mod_max)
+    f = cp.smm.k0 * dl * (1.0 - mod)
+    return jnp.maximum(f, 0.0) * r / lv, lv, lvd
+
+
+def _phi_feedback(cp, q6, qd6):
+    return cp.kp_phi * (2 * jnp.pi - q6[3] - q6[4]) - cp.kd_phi * (qd6[3] + qd6[4])
+
+
+def _stance_feedback(cp, q6, qd6, tau_a_ff, tau_b_ff):
+    """Feedback of III-D. tau_b_fb drives the mean hip angle to pi; tau_a cancels its trunk
+    reaction and adds the pitch PD. With the foot fixed a change of tau_a turns the GRF and
+    changes the pitch acceleration by -(l + d) / (l I_t) per N m, hence the factor
+    l / (l + d) and the sign (opposite to the paper's printed sign in these coordinates)."""
+    tb = _phi_feedback(cp, q6, qd6)
+    thdd = cp.kp_theta * (cp.theta_star - q6[2]) - cp.kd_theta * qd6[2]
+    r = q6[5] / (q6[5] + cp.mp.d)
+    ta = -r * (tb + cp.mp.I_t * thdd)
+    return tau_a_ff + ta, tau_b_ff + tb
+
+
+def stance_command(cp, cs, q, qd):
+    """Stance (III-D): eq. (7) target GRF, eq. (8) inverse dynamics with pitch feedback as the
+    commanded pitch acceleration, mean-hip-angle feedback on tau_b. Returns (u_local (4,),
+    F* (2,), l_v, l_v', l'' nominal)."""
+    q6, qd6 = q[:6], qd[:6]
+    F, lv, lvd = _spring_force(cp, cs, q6, qd6)
+    z = rm.inverse_dynamics(cp.mp, q6, qd6, F, 0.0)
+    tau_a, tau_b = _stance_feedback(cp, q6, qd6, z[0], z[1])
+    lb_t = _tuck_length(cp, q, cs.y_ground, q[4])
+    u = jnp.array([tau_a, tau_b, z[2], _leg_pd(cp, lb_t, q[6], qd[6])])
+    return u, F, lv, lvd, z[7]
+
+
+def sliding_command(cp, cs, q, qd, stance=None):
+    """Sliding transition (III-E): maximum tau_a against the foot's sliding, scaled vertical
+    load, the nominal leg acceleration."""
+    q6, qd6 = q[:6], qd[:6]
+    _, F, _, _, ldd = stance if stance is not None else stance_command(cp, cs, q, qd)
+    J = rm.jac6(cp.mp, q6)
+    vfoot = J @ qd6
+    slide_dir = jnp.where(vfoot[0] >= 0, 1.0, -1.0)
+    tau_a = -cp.tau_max * jnp.sign(vfoot[0] * J[0, 3])
+    xr = qd6[0] - vfoot[0]
+    Fy = jnp.square(jnp.maximum(0.0, xr / jnp.maximum(cs.xa, 0.5))) * F[1]
+    Fy = jnp.minimum(Fy, F[1])
+    w = rm.sliding_dynamics(cp.mp, q6, qd6, tau_a, Fy, ldd, slide_dir)
+    lb_t = _tuck_length(cp, q, cs.y_ground, q[4])
+    tau_b = w[0] + _phi_feedback(cp, q6, qd6)
+    return jnp.array([tau_a, tau_b, w[1], _leg_pd(cp, lb_t, q[6], qd[6])]), xr
+
+
+def _energy(cp, q, qd, foot_y):
+    """Translational energy at lift-off: regulation measures the height above the stance foot
+    (joint sensors, y_foot taken as 0); conservation the global height (truth, so only the
+    dissipated energy is replaced)."""
+    m, g = cp.mp.m, cp.mp.g
+    y_ref = jnp.where(cp.regulation, foot_y, 0.0)
+    return 0.5 * m * (qd[0] ** 2 + qd[1] ** 2) + m * g * (q[1] - y_ref)
+
+
+def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
+    """One controller sample: switch modes (III-G), then command. Returns (cs, u, info)."""
+    leg = cs.leg
+    q, qd = _local(meas.q, leg), _local(meas.qd, leg)
+    contact_a = jnp.where(leg == 0, meas.contact[0], meas.contact[1]) > 0.5
+    foot_ya = q[1] - cp.mp.d * jnp.cos(q[2]) + q[5] * jnp.cos(q[3])
+
+    # --- mode switching (III-G); a touchdown fixes this stance's rest length first
+    mode = cs.mode
+    to_slide = (mode == FLIGHT) & contact_a
+    lv_td = jnp.linalg.norm(rm.virtual_leg(cp.mp, q[:6]))
+    l_rest = jnp.where(to_slide, jnp.clip(lv_td, cp.l_rest_min * cp.smm.l0, cp.smm.l0), cs.l_rest)
+    compressed = jnp.where(to_slide, False, cs.compressed | ((mode != FLIGHT) & (lv_td < cs.l_rest - cp.c_min)))
+    n_stance = jnp.where(to_slide, 0, cs.n_stance + (mode != FLIGHT).astype(cs.n_stance.dtype))
+    cs = cs._replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance)
+    st = stance_command(cp, cs, q, qd)
+    u_st, F_st, lv, lvd, _ = st
+    J = rm.jac6(cp.mp, q[:6])
+    vfoot = J @ qd[:6]
+    xr = qd[0] - vfoot[0]
+    speed_ok = jnp.abs(xr - cs.xa) < 0.1 * jnp.abs(cs.xa)
+    cone_ok = jnp.abs(F_st[0]) <= cp.mp.mu * F_st[1]
+    to_stance = (mode == SLIDING) & speed_ok & cone_ok
+    to_flight = (mode != FLIGHT) & (compressed | (n_stance * cp.dt > cp.t_stance_min)) & (lv > cs.l_rest) & (lvd > 0)
+    mode = jnp.where(to_slide, SLIDING, mode)
+    mode = jnp.where(to_stance, STANCE, mode)
+    # lift-off: estimate the energy error and apex speed, hand over to the other leg
+    e_now = _energy(cp, q, qd, foot_ya)
+    e_star = cp.mp.m * cp.mp.g * cp.y_apex + 0.5 * cp.mp.m * cp.speed ** 2
+    e_int = jnp.where(to_flight, jnp.clip(cs.e_int + (e_now - e_star), -cp.e_int_max, cp.e_int_max), cs.e_int)
+    dE = jnp.where(to_flight, jnp.clip((e_now - e_star) + cp.ki_energy * e_int, -cp.dE_max, cp.dE_max), cs.dE)
+    xa = jnp.where(to_flight, qd[0], cs.xa)
+    yg = jnp.where(mode != FLIGHT, foot_ya, cs.y_ground)
+    new_leg = jnp.where(to_flight, 1 - leg, leg)
+    mode = jnp.where(to_flight, FLIGHT, mode)
+    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance)
+
+    # --- commands (in the local order of the current leg assignment)
+    u_fl, alpha = flight_command(cp, cs_cmd, q, qd)
+    u_sl, _ = sliding_command(cp, cs_cmd, q, qd, st)
+    u_loc = jnp.where(mode == FLIGHT, u_fl, jnp.where(mode == SLIDING, u_sl, u_st))
+    u_loc = u_loc.at[:2].set(jnp.clip(u_loc[:2], -cp.tau_max, cp.tau_max))
+    u = jnp.where(leg == 0, u_loc, u_loc[jnp.array([1, 0, 3, 2])])
+    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance)
+    return cs_new, u, alpha
