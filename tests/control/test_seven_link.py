@@ -145,3 +145,29 @@ def test_kinematic_body_angle_from_encoders(robot):
     qq = sl.configuration(np.deg2rad(88.0) + d, sl.joint_angles(q2), anchor="toe_1", r=robot)
     th2 = ctl.kinematic_body_angle(robot, sl.joint_angles(qq), jnp.array([True, False, False, True]), qq[2] - 0.03)
     assert abs(float(th2 - qq[2])) < 1e-10
+
+
+def test_unilateral_check_never_asks_an_element_to_pull(robot):
+    """The policy's unilateral check: where eq. 7 with every touching element in A would need
+    a toe, heel or knee stop to pull, that element is left out of A and u changes; where no
+    element pulls, u is eq. 7's exactly."""
+    from bipedlab.sim import seven_link_contact as sc
+
+    gains = ctl.tuned_gains()
+    u_of = jax.jit(lambda p, x, a: ctl.policy(p, ctl.initial_state(x, (ctl.S1, ctl.S3)), 0.0, x, a)[0])
+    p_on, p_off = ctl.make_params(robot, gains), ctl.make_params(robot, gains, unilateral_check=False)
+    forces = jax.jit(lambda x, u, a: sc.element_forces(sc.solve(robot, x, u, a)[1]))
+    active = jnp.array([True, True, False, False, True, False])
+    changed = unchanged = 0
+    for seed in range(10):
+        q, qd, _ = _posture(robot, seed)
+        x = jnp.concatenate([q, 0.3 * qd])
+        u_off, u_on = u_of(p_off, x, active), u_of(p_on, x, active)
+        F_off = forces(x, u_off, active)[np.asarray(active)]
+        if float(F_off.min()) >= 0.0:
+            np.testing.assert_allclose(u_on, u_off, atol=1e-12)
+            unchanged += 1
+        else:
+            assert float(jnp.abs(u_on - u_off).max()) > 1e-6
+            changed += 1
+    assert changed > 0 and unchanged > 0, (changed, unchanged)

@@ -20,6 +20,13 @@
    :func:`torque_map`. It gives exactly the constrained acceleration ``R^-1 N R^-T Q_d`` when
    that is realisable and otherwise the least acceleration energy
    ``(qdd_d - qdd_u)^T M (qdd_d - qdd_u)``, with the least-norm u among equals.
+   Unilateral check (``Params.unilateral_check``, on by default): the contact and knee
+   stop forces that the model predicts under u are checked, and an element that would have
+   to pull is left out of A and u recomputed (up to :data:`UNILATERAL_ITERATIONS` elements
+   per sample). Without it, a foot flat on the ground in early stance gets an ankle torque
+   that would need the toe to pull; the toe lifts, the next sample (toe off) presses it back,
+   and the contact flickers at the sample rate (about 70 make/release events per step, each
+   toe re-impact dissipating energy, with torque spikes); likewise the knee stops.
 4. As in the experiment (Fig. 8 caption), a small constant torque presses a locked knee
    into its stop while its leg is in S1, so the knee unlocks only past that threshold.
 
@@ -39,6 +46,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from ..robots import seven_link as sl
+from ..sim import seven_link_contact as sc
 
 S1, S2, S3, S4 = 0, 1, 2, 3
 STATE_NAMES = ("S1 stance", "S2 push-off", "S3 swing", "S4 late swing")
@@ -53,6 +61,8 @@ C[5] = sl.JOINT_MAP[4]
 C[6] = sl.JOINT_MAP[5]
 C0 = np.array([0.0, 0.0, 0.0, np.pi / 2, 0.0, 0.0, np.pi / 2])
 PINV_RTOL = 1e-10
+#: Elements the unilateral check of :func:`policy` may leave out of A per sample.
+UNILATERAL_ITERATIONS = 2
 
 
 @jax.tree_util.register_dataclass
@@ -90,27 +100,43 @@ def paper_gains(knee_lock_torque: float = 0.0) -> Gains:
 #: Table II retuned for the planar model (same layout and units), following Section III-A3:
 #: see :func:`tuned_gains` for what changed and why.
 TABLE_TUNED = dict(
-    k=[[32, 80, 6, 0], [32, 15, 6, 20], [32, 15, 0.5, 10], [32, 0, 6, 10]],
-    b=[[0.75, 4.9, 1, 1.25], [0.75, 1.5, 1, 1.25], [0.75, 1.5, 0.05, 0.5], [0.75, 1.2, 1, 0.5]],
+    k=[[32, 72, 6, 0], [32, 15, 6, 20], [32, 15, 0.5, 10], [32, 0, 6, 10]],
+    b=[[0.75, 4.9, 1, 1.5], [0.75, 1.5, 1, 1.25], [0.75, 1.5, 0.05, 0.5], [0.75, 1.2, 1, 0.5]],
     ref=[[87.5, 90, 0, 0], [87.5, 128, 0, -10], [87.5, 128, 0, 10], [87.5, 0, 0, 0]],
 )
 
 
 def tuned_gains(knee_lock_torque: float = 0.0) -> Gains:
-    """Table II retuned for the planar model (:data:`TABLE_TUNED`); three entries differ.
+    """Table II retuned for the planar model (:data:`TABLE_TUNED`); five entries differ
+    (six numbers: the swing thigh damping is changed in S2 and S3 alike). Used with the
+    unilateral check of :func:`policy` (``make_params(..., unilateral_check=True)``).
 
     With Table II the planar model walks, but at about twice the paper's speed (about 1.05
     m/s, 0.76 m steps, 1.39 Hz): the hardware lost energy turning its feet on a 1.6 m circle
-    and dragging a boom, which the planar model does not. Following Section III-A3:
+    and dragging a boom, which the planar model does not (with the unilateral check, whose
+    contacts no longer chatter and dissipate energy in toe re-impacts, Table II gains even
+    more speed and falls after a few steps). Following Section III-A3 (the stance thigh
+    couple drives hip extension and so the energy entering each step; the push-off ankle
+    stiffness delivers the push-off energy; the swing thigh couple shapes the swing):
 
     * stance thigh equilibrium theta_d1 (S1) 82 -> 90 deg: the stance spring drives hip
       extension less, so less energy enters each step (the main speed change);
+    * stance thigh stiffness k_d1 (S1) 80 -> 72 N m/rad: the same effect, finer: speed
+      0.58 -> 0.53 m/s and c_mt 0.306 -> 0.287 (70 gives 0.49 m/s, 0.45 m steps and c_mt
+      0.263 but walks only from start speeds near 0.5 m/s; 65 falls);
+    * stance ankle damping b_d3 (S1) 1.25 -> 1.5 N m s/rad: the ankle resists the roll over
+      the stance foot a little more (Section III-A3's human-like ankle impedance): speed 0.53
+      -> 0.50 m/s, 1.09 -> 1.06 Hz, c_mt 0.287 -> 0.284, and the start-speed basin widens
+      from 0.45-0.55 to 0.40-0.55 m/s;
     * push-off ankle stiffness k_d3 (S2) 40 -> 20 N m/rad: less energy at push-off;
-    * swing thigh damping b_d1 (S2, S3) 0.6 -> 1.5 N m s/rad: a smoother swing, lower c_mt,
-      and a wider basin (30 steps from start speeds 0.45-0.6 m/s, and with the Section V-A
-      sensing).
+    * swing thigh damping b_d1 (S2, S3) 0.6 -> 1.5 N m s/rad: a smoother swing and a
+      wider basin (back at 0.6 with the other changes the robot falls within 10 steps).
 
-    Body, knee and the other ankle entries are Table II's.
+    Result (ideal sensing, default start, 30 and 60 steps alike): 0.495 m/s, 0.465 m steps,
+    1.06 Hz, c_mt 0.284, about 6 contact/knee-stop events per step (one make per toe, heel
+    and knee stop); it also walks 30 steps from start speeds 0.40-0.55 m/s (0.35 and 0.6
+    fall) and with the Section V-A sensing (0.50 m/s, c_mt 0.287). Body, knee and the other
+    ankle entries are Table II's.
     """
     return gains_from_table(TABLE_TUNED["k"], TABLE_TUNED["b"], TABLE_TUNED["ref"], knee_lock_torque)
 
@@ -210,6 +236,7 @@ class Params:
     velocity_cutoff_hz: jax.Array
     knee_tolerance: jax.Array
     knee_rows_in_stance_only: jax.Array
+    unilateral_check: jax.Array
 
 
 @jax.tree_util.register_dataclass
@@ -234,13 +261,17 @@ class State:
 
 def make_params(r: sl.SevenLink, gains: Gains, sensing: bool = False, sample: float = 1e-3,
                 blend_time: float = 0.02, velocity_cutoff_hz: float = 100.0,
-                knee_tolerance_deg: float = 0.0, knee_rows_in_stance_only: bool = False) -> Params:
+                knee_tolerance_deg: float = 0.0, knee_rows_in_stance_only: bool = False,
+                unilateral_check: bool = True) -> Params:
     """Controller parameters. knee_tolerance_deg: the knee counts as fully extended (its
     stop row enters A, its leg may switch S3 -> S4, the lock torque acts) within this angle
-    of the stop, as an encoder threshold would; 0 reads the stop contact exactly."""
+    of the stop, as an encoder threshold would; 0 reads the stop contact exactly.
+    unilateral_check: leave out of A the elements whose predicted force would pull (see
+    the module docstring); False is eq. 7 with every touching element in A."""
     f = lambda v: jnp.asarray(v, jnp.float64)  # noqa: E731
     return Params(r, gains, jnp.asarray(1 if sensing else 0), f(sample), f(blend_time), f(velocity_cutoff_hz),
-                  f(np.deg2rad(knee_tolerance_deg)), jnp.asarray(bool(knee_rows_in_stance_only)))
+                  f(np.deg2rad(knee_tolerance_deg)), jnp.asarray(bool(knee_rows_in_stance_only)),
+                  jnp.asarray(bool(unilateral_check)))
 
 
 def initial_state(x0, states=(S1, S3), seed: int = 0) -> State:
@@ -313,10 +344,32 @@ def policy(p: Params, c: State, t, x, active):
     qa = q.at[:2].set(0.0)  # A and M need only the angles
     M = sl.mass_matrix(p.robot, qa)
     knees_A = knees & (~p.knee_rows_in_stance_only | (states == S1) | (states == S4))
-    A = active_rows(p.robot, qa, contacts.astype(jnp.float64), knees_A.astype(jnp.float64))
-    u = torque_map(M, A, Qd)
     lock = p.gains.knee_lock_torque * ((states == S1) & knees).astype(jnp.float64)
-    u = u.at[1].add(lock[0]).at[4].add(lock[1])
+
+    def u_for(elements):
+        A = active_rows(p.robot, qa, elements[:4].astype(jnp.float64), elements[4:].astype(jnp.float64))
+        u = torque_map(M, A, Qd)
+        return u.at[1].add(lock[0]).at[4].add(lock[1])
+
+    elements = jnp.concatenate([contacts, knees_A])
+    u = u_for(elements)
+
+    def check(_, carry):
+        # the unilateral check: the constraint forces the model predicts under u for the
+        # elements kept in A; one that would have to pull is left out of A (most negative
+        # first) and u recomputed, so the torque map never asks a toe, heel or knee stop to
+        # pull (which the contact would answer by releasing, and the next sample by
+        # pressing it back: chatter)
+        el, u = carry
+        xa = jnp.concatenate([qa, qd])
+        _, lam = sc.solve(p.robot, xa, u, el)
+        F = jnp.where(el, sc.element_forces(lam), 0.0)
+        i = jnp.argmin(F)
+        drop = (F[i] < 0.0) & p.unilateral_check
+        el2 = jnp.where(drop, el.at[i].set(False), el)
+        return el2, jnp.where(drop, u_for(el2), u)
+
+    _, u = jax.lax.fori_loop(0, UNILATERAL_ITERATIONS, check, (elements, u))
     new = State(states, flat, theta_g, blend, q[2:9], qd[2:9], gyro, key, jnp.asarray(False), Qd, theta)
     return u, new
 

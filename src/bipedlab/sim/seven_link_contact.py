@@ -13,8 +13,8 @@ Flow (:func:`flow`): the constrained equations of motion of
 :mod:`bipedlab.mechanics.active_set` with the joint damping and ``E u``. After every step the
 state is projected back onto the active constraints (one M-weighted Newton step on positions,
 then the exact velocity projection): the drift before and after is measured and returned
-(30 steps of the tuned walk: at most 3e-11 m and 1.3e-9 m/s before a projection, 4e-15 m and
-6e-16 m/s after).
+(30 steps of the tuned walk: at most 1.3e-11 m and 6e-10 m/s before a projection, 4e-15 m and
+5e-16 m/s after).
 
 Events, all inside one compiled ``lax.while_loop``:
 

@@ -62,6 +62,13 @@ def initial_condition(r: sl.SevenLink | None = None, speed: float = START_SPEED)
     return x, active
 
 
+#: The controller variant of each parameter set: "paper" is Table II with eq. 7 as printed
+#: (every touching element in A); "tuned" adds the unilateral check of
+#: :func:`bipedlab.control.seven_link.policy` (no element asked to pull), which removes the
+#: contact chatter; Table II with the check walks too fast and falls within a few steps.
+UNILATERAL_CHECK = {"paper": False, "tuned": True}
+
+
 def gains(name: str) -> ctl.Gains:
     """"paper" (Table II) or "tuned" (:data:`bipedlab.control.seven_link.TABLE_TUNED`)."""
     if name == "paper":
@@ -85,12 +92,13 @@ def _simulator(settings: sc.Settings):
     return jax.jit(run)
 
 
-def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None):
+def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
+             speed: float = START_SPEED):
     """Simulate the closed loop; returns the raw :class:`~bipedlab.sim.seven_link_contact.SimResult`."""
     r = sl.model()
     if x0 is None:
-        x0, active0 = initial_condition(r)
-    p = ctl.make_params(r, gains(params), sensing=sensing)
+        x0, active0 = initial_condition(r, speed)
+    p = ctl.make_params(r, gains(params), sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
     c0 = ctl.initial_state(x0)
     return _simulator(settings_for(steps))(x0, active0, p, c0)
 
@@ -148,6 +156,8 @@ def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progres
     rec["max_friction_ratio"] = float(res.friction_ratio)
     rec["events"] = int(res.n_events)
     rec["releases"] = int(res.n_releases)
+    rec["events_per_step"] = int(res.n_events) / max(n, 1)
+    rec["unilateral_check"] = UNILATERAL_CHECK[params]
     tail = lt >= (lt[-1] - 5.0) if nl else np.zeros(0, bool)
     rec["peak_torques_nm"] = dict(zip(sl.JOINT_NAMES, np.abs(lu).max(axis=0).round(3).tolist())) if nl else {}
     rec["body_angle_deg_mean"] = float(np.rad2deg(lx[tail, 2]).mean()) if nl else None
@@ -184,7 +194,9 @@ def summary_walk(rec: dict) -> str:
              f"positive-work c_mt {f(rec['cmt_positive'], '.3f')}",
              "  max constraint drift before/after projection: "
              f"{rec['max_constraint_drift']['position_before_projection_m']:.1e} / "
-             f"{rec['max_constraint_drift']['position_after_projection_m']:.1e} m"]
+             f"{rec['max_constraint_drift']['position_after_projection_m']:.1e} m",
+             f"  contact/knee-stop events {rec['events_per_step']:.1f} per step, {rec['releases']} releases "
+             f"(unilateral check {'on' if rec['unilateral_check'] else 'off'})"]
     if rec.get("files"):
         lines.append("  wrote " + ", ".join(rec["files"]))
     return "\n".join(lines)
