@@ -35,6 +35,28 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
   c_min = 2 cm since touchdown or t_stance_min = 40 ms have passed: with delayed or noisy
   sensing the state right after touchdown otherwise can look like a lift-off, and a grazing
   contact that never compresses the leg still ends;
+- lift-off energy (:func:`_energy`) is that of the whole robot's COM (trunk and feet, m_f in
+  the controller's model), the one quantity conserved exactly in flight, with the target
+  (m + 2 m_f)(g y* + v*^2/2); in regulation the height is measured above the sensed foot
+  height at touchdown. Measured energy budget on flat ground (conservation, before): the
+  COM energy sat 14 J below the target through the whole step (flight, touchdown, stance and
+  lift-off each within 2 J, i.e. no loss between lift-off and apex); the integral action had
+  zeroed the controller's *estimate*, which was biased by the 0.4 kg of feet (9 J of target,
+  the trunk COM instead of the system COM) and in regulation by the foot sunk 1.3 cm into the
+  ground at lift-off (m g 1.3 cm = 7.5 J). This fix alone: -6.7 -> -1.5 cm/s;
+- landing-angle trim: the swing policy's apex height keeps a +0.7 cm bias on the robot (not
+  a point mass on a massless leg), worth -1.4 cm/s at fixed energy; at each lift-off
+  a_trim += ki_angle (h_apex - y*) with h_apex the exact ballistic COM apex above the
+  touchdown ground estimate (dh/da = -1.8 m/rad on the SMM map, so ki_angle = 0.25 rad/m is
+  about half the deadbeat gain), clipped to +-a_trim_max; a* = a*(t) + a_trim;
+- sensing delay (``delay``, s, known to the controller): in flight the delayed state is
+  predicted ballistically (:func:`predict_flight`) before the flight command; the stance
+  spring acts on the constant-rate predicted length l_v + tau l_v' (a spring lagging by tau
+  injects k0 tau int l_v'^2 dt, about 90 J per stance at 10 ms: the speed ran away); the
+  leg-length PD bandwidth is capped at 0.5 / tau (:func:`_leg_pd`: at 10 ms the nominal
+  gains made the swing legs limit-cycle by +-10 cm, the real cause of the early, random
+  touchdowns). A constant-rate prediction of the lift-off test lost every trial; all three
+  are off without delay;
 - a landing with a short virtual leg (early, on a step-up) sets that stance's rest length to
   the touchdown length (at least 0.8 l0) instead of starting with a pre-compressed spring.
 """
@@ -82,6 +104,11 @@ class CtrlParams(NamedTuple):
     e_int_max: float = 600.0
     dE_max: float = 150.0
     k_mod_max: float = 0.5
+    ki_angle: float = 0.25
+    a_trim_max: float = 0.03
+    delay: float = 0.0            # known sensing delay (s) that the flight predictor bridges
+    leg_delay_margin: float = 0.5  # leg-length loop bandwidth times the delay (rad), see _leg_pd
+    leg_zeta: float = 0.7
 
 
 class CtrlState(NamedTuple):
@@ -94,6 +121,8 @@ class CtrlState(NamedTuple):
     l_rest: jax.Array     # virtual rest length of this stance (m)
     compressed: jax.Array # the virtual leg was compressed by c_min since touchdown
     n_stance: jax.Array   # controller samples since touchdown
+    y_td: jax.Array       # sensed foot height at the last touchdown (the ground estimate)
+    a_trim: jax.Array     # integral landing-angle trim (rad), see :func:`control`
 
 
 class Meas(NamedTuple):
@@ -106,7 +135,8 @@ class Meas(NamedTuple):
 def init_state(cp: CtrlParams, leg: int = 0) -> CtrlState:
     i32 = lambda v: jnp.asarray(v, jnp.int32)
     f64 = lambda v: jnp.asarray(v, jnp.float64)
-    return CtrlState(i32(FLIGHT), i32(leg), f64(0.0), f64(cp.speed), f64(0.0), f64(0.0), f64(cp.smm.l0), jnp.asarray(False), i32(0))
+    return CtrlState(i32(FLIGHT), i32(leg), f64(0.0), f64(cp.speed), f64(0.0), f64(0.0), f64(cp.smm.l0), jnp.asarray(False), i32(0),
+                      f64(0.0), f64(0.0))
 
 
 def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=1.05,
@@ -160,8 +190,20 @@ def landing_length(cp, theta, gamma):
 
 def _leg_pd(cp, l_target, l, ld):
     """Swing-leg length PD, saturated at f_swing_max: an unsaturated retraction right after
-    lift-off, while the foot still touches the ground, pulls the trunk down."""
-    return jnp.clip(cp.kp_leg * (l_target - l) - cp.kd_leg * ld, -cp.f_swing_max, cp.f_swing_max)
+    lift-off, while the foot still touches the ground, pulls the trunk down.
+
+    Under a sensing delay tau the loop around the foot mass m_f (the leg-length coordinate's
+    inertia in flight) becomes unstable: at 10 ms the nominal kp = 3000 N/m (w = 122 rad/s,
+    70 deg of delay phase) put the swing legs into a +-10 cm, 50 ms bang-bang limit cycle so
+    the landing foot met the ground at a random phase of it. The natural frequency is
+    therefore capped at w_tau = leg_delay_margin / tau (kp <= m_f w_tau^2) with damping ratio
+    leg_zeta (kd <= 2 zeta sqrt(kp m_f)); unchanged without delay."""
+    kp, kd = cp.kp_leg, cp.kd_leg
+    if cp.delay > 0 and cp.mp.m_f > 0:
+        w = cp.leg_delay_margin / cp.delay
+        kp = min(kp, cp.mp.m_f * w * w)
+        kd = min(kd, 2 * cp.leg_zeta * (kp * cp.mp.m_f) ** 0.5)
+    return jnp.clip(kp * (l_target - l) - kd * ld, -cp.f_swing_max, cp.f_swing_max)
 
 
 def _tuck_length(cp, q, y_ground, gamma):
@@ -177,7 +219,7 @@ def flight_command(cp, cs, q, qd):
     landing angle/hip angle for logging."""
     mp = cp.mp
     t = -qd[1] / mp.g                                  # time since the flight apex
-    alpha = slip.policy_angle(cp.policy, t)
+    alpha = slip.policy_angle(cp.policy, t) + cs.a_trim
     alpha_d = slip.policy_rate(cp.policy, t)
     ga_star, dga = jax.jvp(lambda a: landing_hip_angle(cp, q[2], a), (alpha,), (alpha_d,))
     H = mp.I_t * qd[2] + mp.I_m * (qd[3] + qd[4])
@@ -203,7 +245,9 @@ def _spring_force(cp, cs, q6, qd6):
     J = rm.jac6(cp.mp, q6)
     # l_v' = rate of the foot-to-COM distance (COM velocity relative to the foot, along r)
     lvd = jnp.dot(r, qd6[:2] - J @ qd6) / lv
-    dl = cs.l_rest - lv
+    # the spring acts on the delay-predicted length: a spring lagging by tau does the extra work
+    # k0 tau int l_v'^2 dt (about 90 J per stance at 10 ms), which no modulation can remove
+    dl = cs.l_rest - (lv + cp.delay * lvd)
     mod = jnp.clip(cp.c_energy * cs.dE * lvd / cp.smm.k0, -cp.k_mod_max, cp.k_mod_max)
     f = cp.smm.k0 * dl * (1.0 - mod)
     return jnp.maximum(f, 0.0) * r / lv, lv, lvd
@@ -256,13 +300,34 @@ def sliding_command(cp, cs, q, qd, stance=None):
     return jnp.array([tau_a, tau_b, w[1], _leg_pd(cp, lb_t, q[6], qd[6])]), xr
 
 
-def _energy(cp, q, qd, foot_y):
-    """Translational energy at lift-off: regulation measures the height above the stance foot
-    (joint sensors, y_foot taken as 0); conservation the global height (truth, so only the
-    dissipated energy is replaced)."""
-    m, g = cp.mp.m, cp.mp.g
-    y_ref = jnp.where(cp.regulation, foot_y, 0.0)
-    return 0.5 * m * (qd[0] ** 2 + qd[1] ** 2) + m * g * (q[1] - y_ref)
+def _energy(cp, q, qd, y_ground):
+    """Translational energy of the whole robot's COM (trunk and feet, the foot masses m_f of
+    the controller's model) at lift-off, and the COM apex height it will reach above
+    ``y_ground``. In flight this COM is ballistic, so both are exactly the coming apex's.
+    Regulation measures heights above the ground under the stance foot, estimated as the
+    sensed foot height at touchdown (the foot sinks about 1.3 cm into the ground by lift-off:
+    taking the lift-off foot height over-estimated the energy by m g 1.3 cm = 7.5 J);
+    conservation takes the global height (truth, so only the dissipated energy is replaced).
+    Returns (energy, energy target, apex height above y_ground)."""
+    mp = cp.mp
+    M, g = mp.m + 2 * mp.m_f, mp.g
+    com, vcom = rm.system_com(mp, q, qd)
+    y_ref = jnp.where(cp.regulation, y_ground, 0.0)
+    e = 0.5 * M * (vcom[0] ** 2 + vcom[1] ** 2) + M * g * (com[1] - y_ref)
+    e_star = M * g * cp.y_apex + 0.5 * M * cp.speed ** 2
+    h_apex = com[1] - y_ground + jnp.square(jnp.maximum(vcom[1], 0.0)) / (2 * g)
+    return e, e_star, h_apex
+
+
+def predict_flight(cp, q, qd):
+    """Delay compensation in flight: the trunk moves ballistically over the known sensing delay
+    (exact for the robot's COM, whose difference from the trunk COM is the foot masses' 0.7 %),
+    the joint coordinates at constant rate. Identity when cp.delay = 0."""
+    tau = cp.delay
+    q = q + tau * qd
+    q = q.at[1].add(-0.5 * cp.mp.g * tau * tau)
+    qd = qd.at[1].add(-cp.mp.g * tau)
+    return q, qd
 
 
 def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
@@ -279,7 +344,8 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     l_rest = jnp.where(to_slide, jnp.clip(lv_td, cp.l_rest_min * cp.smm.l0, cp.smm.l0), cs.l_rest)
     compressed = jnp.where(to_slide, False, cs.compressed | ((mode != FLIGHT) & (lv_td < cs.l_rest - cp.c_min)))
     n_stance = jnp.where(to_slide, 0, cs.n_stance + (mode != FLIGHT).astype(cs.n_stance.dtype))
-    cs = cs._replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance)
+    y_td = jnp.where(to_slide, foot_ya, cs.y_td)
+    cs = cs._replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td)
     st = stance_command(cp, cs, q, qd)
     u_st, F_st, lv, lvd, _ = st
     J = rm.jac6(cp.mp, q[:6])
@@ -292,21 +358,23 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     mode = jnp.where(to_slide, SLIDING, mode)
     mode = jnp.where(to_stance, STANCE, mode)
     # lift-off: estimate the energy error and apex speed, hand over to the other leg
-    e_now = _energy(cp, q, qd, foot_ya)
-    e_star = cp.mp.m * cp.mp.g * cp.y_apex + 0.5 * cp.mp.m * cp.speed ** 2
+    e_now, e_star, h_apex = _energy(cp, q, qd, y_td)
+    a_trim = jnp.where(to_flight, jnp.clip(cs.a_trim + cp.ki_angle * (h_apex - cp.y_apex),
+                                           -cp.a_trim_max, cp.a_trim_max), cs.a_trim)
     e_int = jnp.where(to_flight, jnp.clip(cs.e_int + (e_now - e_star), -cp.e_int_max, cp.e_int_max), cs.e_int)
     dE = jnp.where(to_flight, jnp.clip((e_now - e_star) + cp.ki_energy * e_int, -cp.dE_max, cp.dE_max), cs.dE)
     xa = jnp.where(to_flight, qd[0], cs.xa)
     yg = jnp.where(mode != FLIGHT, foot_ya, cs.y_ground)
     new_leg = jnp.where(to_flight, 1 - leg, leg)
     mode = jnp.where(to_flight, FLIGHT, mode)
-    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance)
+    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance, y_td, cs.a_trim)
 
     # --- commands (in the local order of the current leg assignment)
-    u_fl, alpha = flight_command(cp, cs_cmd, q, qd)
+    qp, qdp = predict_flight(cp, q, qd)
+    u_fl, alpha = flight_command(cp, cs_cmd, qp, qdp)
     u_sl, _ = sliding_command(cp, cs_cmd, q, qd, st)
     u_loc = jnp.where(mode == FLIGHT, u_fl, jnp.where(mode == SLIDING, u_sl, u_st))
     u_loc = u_loc.at[:2].set(jnp.clip(u_loc[:2], -cp.tau_max, cp.tau_max))
     u = jnp.where(leg == 0, u_loc, u_loc[jnp.array([1, 0, 3, 2])])
-    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance)
+    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance, y_td, a_trim)
     return cs_new, u, alpha

@@ -24,6 +24,25 @@ class ModelParams(NamedTuple):
     d: float
     mu: float
     g: float = 9.81
+    m_f: float = 0.0   # foot point mass per leg: only for the whole-robot COM energy estimate
+
+
+def system_com(mp, q, qd):
+    """Whole-robot COM position and velocity (trunk plus the two foot point masses) from the
+    7 coordinates in either leg order. Ballistic in flight, so its translational energy at
+    lift-off is exactly the apex energy; the controller's stance model stays massless-foot."""
+    th, thd = q[2], qd[2]
+    hip = jnp.array([q[0] - mp.d * jnp.sin(th), q[1] - mp.d * jnp.cos(th)])
+    hipd = jnp.array([qd[0] - mp.d * jnp.cos(th) * thd, qd[1] + mp.d * jnp.sin(th) * thd])
+    pos, vel = mp.m * q[:2], mp.m * qd[:2]
+    for gi, li in ((3, 5), (4, 6)):
+        g, l, gd, ld = q[gi], q[li], qd[gi], qd[li]
+        e = jnp.array([jnp.sin(g), jnp.cos(g)])
+        ed = jnp.array([jnp.cos(g), -jnp.sin(g)]) * gd
+        pos = pos + mp.m_f * (hip + l * e)
+        vel = vel + mp.m_f * (hipd + ld * e + l * ed)
+    mt = mp.m + 2 * mp.m_f
+    return pos / mt, vel / mt
 
 
 def mass6(mp):

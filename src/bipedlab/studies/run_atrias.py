@@ -79,7 +79,7 @@ def _build(model_error, energy):
     rp = at.AtriasParams()
     err = dict(model_error)
     s_m, s_i, s_f, s_k = (1 + err.get(k, 0.0) for k in MODEL_ERRORS)
-    mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, 0.8 * s_f)
+    mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, 0.8 * s_f, m_f=rp.m_f * s_m)
     gait = slip.Gait(1.05, 5.0)
     smm_ctrl = slip.SlipParams(m=rp.m * s_m)
     pol, samples = slip.swing_policy(smm_ctrl, gait)
@@ -114,6 +114,7 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
     terr = make_terrains(st, n, length)
     cfg = ar.RunConfig(noise=st.noise, delay=int(round(st.delay_ms / (ar.CONTROL_DT * 1e3))), log=log,
                        dt=dt, substeps=int(round(ar.CONTROL_DT / dt)))
+    cp = cp._replace(delay=cfg.delay * ar.CONTROL_DT)  # the controller knows its sensing delay
     c0 = ar.initial_carry(rp, cp, cfg)
     c = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n,) + jnp.shape(a)), c0)
     if theta0_offsets_deg is not None or st.theta0_offset_deg:
