@@ -95,6 +95,8 @@ def build_parser() -> argparse.ArgumentParser:
     o = sub.add_parser("optimize", help=STUDIES["optimize"], description=STUDIES["optimize"])
     o.add_argument("robot", choices=["five-link", "mabel"])
     o.add_argument("--speed", type=_positive_float, default=0.8, help="walking speed, m/s")
+    o.add_argument("--step-length", type=_positive_float, default=None, metavar="L",
+                   help="mabel: prescribe the step length in m (e.g. 0.575, the paper's nominal gait)")
     o.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
     o.add_argument("--controller", choices=["iolin", "pd"], default="iolin",
@@ -121,8 +123,9 @@ def build_parser() -> argparse.ArgumentParser:
     w.add_argument("--lean", type=float, default=0.0, metavar="DEG",
                    help="mabel: lean the torso forward by DEG degrees (swing leg's absolute angle kept), ramped in over --lean-steps steps, as in Exp. 5")
     w.add_argument("--lean-steps", type=_positive_int, default=20, metavar="N", help="mabel: steps over which --lean is ramped in (default 20)")
-    w.add_argument("--sensing", choices=["encoders", "ideal"], default="encoders",
-                   help="mabel: 14-bit encoders with differentiated velocities (default) or the exact state")
+    w.add_argument("--sensing", choices=["encoders", "observer", "ideal"], default="encoders",
+                   help="mabel: 14-bit encoders with filtered differentiated velocities (default), the same encoders "
+                        "with a model-based velocity observer, or the exact state")
     w.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
     w.add_argument("--json", action="store_true", help="print one JSON object on stdout")
     w.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
@@ -252,6 +255,8 @@ def main(argv=None) -> int:
     from .studies import hzd_five_link as hz
 
     if args.study == "optimize":
+        if args.step_length is not None:
+            parser.error("five-link: --step-length applies to mabel only")
         rec = hz.optimize(args.speed, args.cost, args.controller, save=args.save, out=args.out, progress=_progress)
         _emit(rec, args.json, hz.summary_optimize)
     elif args.study == "walk":
@@ -285,7 +290,7 @@ def _mabel(parser, args) -> int:
 
     if args.study == "optimize":
         rec = wm.optimize(args.speed, args.cost, save=args.save, out=args.out, poincare_check=not args.no_poincare,
-                          progress=_progress)
+                          progress=_progress, step_length=args.step_length)
         _emit(rec, args.json, wm.summary_optimize)
         return 0
     controller = args.controller or "pdff"

@@ -35,9 +35,15 @@ def dm():
 
 
 @pytest.fixture(scope="module")
-def evaluated(dm, nominal):
+def evaluate_fn(dm):
+    """evaluate(x, speed, max_step), compiled once."""
+    return jax.jit(lambda x, s, mx: md.evaluate(dm, x, s, max_step=mx))
+
+
+@pytest.fixture(scope="module")
+def evaluated(evaluate_fn, nominal):
     """evaluate() at the shipped nominal and efficient decision vectors (one compile)."""
-    f = jax.jit(lambda x, s: md.evaluate(dm, x, s))
+    f = lambda x, s: evaluate_fn(x, s, md.MAX_STEP)  # noqa: E731
     out = {}
     for name in ("nominal", "efficient"):
         rec = nominal[2] if name == "nominal" else wm.load_gait(name)[2]
@@ -225,6 +231,19 @@ def test_shipped_nominal_design_is_a_feasible_fixed_point(evaluated):
     for k in ("cmt", "step_length", "period"):
         assert float(fig[k]) == pytest.approx(rec["design"][k], rel=1e-8)
     assert np.asarray(fig["peak_torques"]) == pytest.approx(rec["design"]["peak_torques"], rel=1e-8)
+
+
+def test_step_length_window_is_an_inequality_of_the_design(evaluate_fn, nominal):
+    """optimize(min_step, max_step) bounds the step: the last two inequalities read
+    5 (L - min) and 5 (max - L); a window below the nominal step is violated, one above holds."""
+    rec = nominal[2]
+    x, v = jnp.asarray(rec["x"], float), jnp.asarray(rec["speed"], float)
+    L = float(rec["design"]["step_length"])
+    for mx, violated in ((L - 0.08, True), (L + 0.08, False)):
+        fig, _, ineq, _ = evaluate_fn(x, v, mx)
+        assert float(fig["step_length"]) == pytest.approx(L, rel=1e-9)
+        assert float(ineq[-1]) == pytest.approx(5 * (mx - L), rel=1e-9)
+        assert (float(ineq[-1]) < 0) == violated
 
 
 def test_efficient_gait_saves_motor_work(evaluated):

@@ -56,6 +56,8 @@ SPRING_RATE_MARGIN = 0.5
 BSP_MIN = 0.03
 #: the swing toe meets the ground descending at least this fast (m/s): a transversal touchdown
 TOUCHDOWN_RATE = 0.1
+#: default upper bound on the step length (m): inactive unless a caller lowers it
+MAX_STEP = 2.0
 LIMITS = jnp.asarray([tb.TORQUE_CAPACITY["mLA"], tb.TORQUE_CAPACITY["mLS"]] * 2)
 
 
@@ -124,7 +126,7 @@ def run_step(m, vc, w0, nodes=NODES):
     return wf, (ths, ws, us, qss, qdss), starts
 
 
-def evaluate(m, x, speed, eta=1.0, min_step=0.0):
+def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP):
     """(figures, equalities, inequalities) of the decision vector x (all JAX)."""
     zm = pre_impact_state(x)
     tr = wk.impact(m, zm, eta)
@@ -158,7 +160,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0):
         (ws[NODES[0]:, 0] - BSP_MIN) * 10,
         (jnp.deg2rad(220.0) - qss[:, 3]) * 5, (qss[:, 0] - jnp.deg2rad(140.0)) * 5,
         (1.0 - jnp.abs(us) / LIMITS).ravel(),
-        jnp.stack([(step_length - min_step) * 5]),
+        jnp.stack([(step_length - min_step) * 5, (max_step - step_length) * 5]),
     ])
     figures = dict(
         speed=v, step_length=step_length, period=T, torque_cost=wf[4] / step_length,
@@ -196,19 +198,19 @@ def _compiled(cost):
     """One compiled call giving cost, equalities, inequalities and their Jacobians for a
     (model, x, speed); the speed is traced, so a sweep compiles once per cost."""
     if cost not in _COMPILED:
-        def parts(m, x, speed, min_step):
-            fig, eq, ineq, _ = evaluate(m, x, speed, min_step=min_step)
+        def parts(m, x, speed, window):
+            fig, eq, ineq, _ = evaluate(m, x, speed, min_step=window[0], max_step=window[1])
             return jnp.concatenate([_scalar_cost(fig, cost)[None], eq, ineq])
 
-        _COMPILED[cost] = jax.jit(lambda m, x, speed, min_step: (parts(m, x, speed, min_step),
-                                                                  jax.jacfwd(parts, argnums=1)(m, x, speed, min_step)))
+        _COMPILED[cost] = jax.jit(lambda m, x, speed, window: (parts(m, x, speed, window),
+                                                                jax.jacfwd(parts, argnums=1)(m, x, speed, window)))
     return _COMPILED[cost]
 
 
 _COMPILED: dict = {}
 
 
-def _functions(m, speed, cost, min_step=0.0):
+def _functions(m, speed, cost, window=(0.0, None)):
     """Cost, equalities, inequalities and Jacobians as SciPy callbacks, memoised on x."""
     both = _compiled(cost)
     memo = {}
@@ -217,7 +219,7 @@ def _functions(m, speed, cost, min_step=0.0):
         key = np.asarray(x, float).tobytes()
         if key not in memo:
             memo.clear()
-            v, j = both(m, jnp.asarray(x, float), jnp.asarray(speed, float), jnp.asarray(min_step, float))
+            v, j = both(m, jnp.asarray(x, float), jnp.asarray(speed, float), jnp.asarray(window, float))
             memo[key] = (np.asarray(v), np.asarray(j))
         return memo[key]
 
@@ -226,8 +228,9 @@ def _functions(m, speed, cost, min_step=0.0):
             lambda x: get(x)[1][1:1 + ne], lambda x: get(x)[0][1 + ne:], lambda x: get(x)[1][1 + ne:])
 
 
-def _problem(speed, cost, model=None, min_step=0.0):
-    return _functions(design_model(model), speed, cost, min_step)
+def _problem(speed, cost, model=None, window=(0.0, None)):
+    lo, hi = window
+    return _functions(design_model(model), speed, cost, (lo, MAX_STEP if hi is None else hi))
 
 
 def compile_problem(speed: float, cost: str, model=None) -> None:
@@ -237,11 +240,12 @@ def compile_problem(speed: float, cost: str, model=None) -> None:
 
 
 def optimize(speed: float = 0.8, cost: str = "torque", x0=None, maxiter: int = 500, ftol: float = 1e-9,
-             model=None, min_step: float = 0.0):
-    """Solve the gait-design NLP from x0 (default: :func:`initial_guess`); returns (Design,
-    info) with info: success, message, iterations, wall_s, eq_residual, ineq_violation."""
+             model=None, min_step: float = 0.0, max_step: float = MAX_STEP):
+    """Solve the gait-design NLP from x0 (default: :func:`initial_guess`), the step length
+    kept within [min_step, max_step] (m; equal bounds prescribe it); returns (Design, info)
+    with info: success, message, iterations, wall_s, eq_residual, ineq_violation."""
     m = design_model(model)
-    f, fj, e, ej, i, ij = _problem(speed, cost, model, min_step)
+    f, fj, e, ej, i, ij = _problem(speed, cost, model, (min_step, max_step))
     x0 = initial_guess(speed) if x0 is None else np.asarray(x0, float)
     t0 = time.perf_counter()
     x0 = feasible_start(f, e, ej, i, ij, x0)

@@ -130,11 +130,11 @@ def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_chec
 
 # ----------------------------------------------------------------------------- optimize
 
-def _start_point(speed: float, cost: str):
-    """The hand-set guess near 0.8 m/s; otherwise the shipped gait of the same cost nearest in
-    speed (continuation)."""
-    if abs(speed - 0.8) < 0.15:
-        return md.initial_guess(speed), "hand-set initial guess"
+def _start_point(speed: float, cost: str, shipped_only: bool = False):
+    """The hand-set guess near 0.8 m/s; otherwise (or with ``shipped_only``) the shipped gait
+    nearest in speed (continuation). Returns (x0, description, its step length or None)."""
+    if abs(speed - 0.8) < 0.15 and not shipped_only:
+        return md.initial_guess(speed), "hand-set initial guess", None
     best = None
     for g in GAITS:
         try:
@@ -144,36 +144,54 @@ def _start_point(speed: float, cost: str):
         if best is None or abs(rec["speed"] - speed) < abs(best["speed"] - speed):
             best = rec
     if best is None:
-        return md.initial_guess(speed), "hand-set initial guess"
-    return np.asarray(best["x"], float), f"shipped gait '{best['name']}' ({best['speed']:.2f} m/s)"
+        return md.initial_guess(speed), "hand-set initial guess", None
+    return (np.asarray(best["x"], float), f"shipped gait '{best['name']}' ({best['speed']:.2f} m/s)",
+            float(best["design"]["step_length"]))
 
 
-def design_gait(speed: float, cost: str, x0=None, progress=None):
-    """Optimise (torque cost first; for c_mt, continue from the torque optimum). Returns
-    (design, info with warm and cold times)."""
+#: largest change of a prescribed step length per continuation solve (m)
+STEP_CONTINUATION = 0.03
+
+
+def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None):
+    """Optimise (torque cost first; for c_mt, continue from the torque optimum). With
+    ``step_length`` (m) the step is prescribed, reached from the nearest shipped gait by
+    continuation in increments of at most STEP_CONTINUATION. Returns (design, info with warm
+    and cold times)."""
     say = progress or (lambda msg: None)
-    start = "given start"
+    start, L0 = "given start", None
     if x0 is None:
-        x0, start = _start_point(speed, cost)
+        x0, start, L0 = _start_point(speed, cost, shipped_only=step_length is not None)
+    lengths = [None]
+    if step_length is not None:
+        n = 1 if L0 is None else max(1, int(np.ceil(abs(step_length - L0) / STEP_CONTINUATION)))
+        lengths = [step_length] if L0 is None else list(np.linspace(L0, step_length, n + 1)[1:])
     t0 = time.perf_counter()
     say(f"compiling the gait-design problem (speed {speed} m/s); start: {start}")
     md.compile_problem(speed, "torque")
     if cost == "cmt":
         md.compile_problem(speed, "cmt")
     cold_compile = time.perf_counter() - t0
-    d, info = md.optimize(speed, "torque", x0=x0)
-    its, wall = info["iterations"], info["wall_s"]
+    its, wall = 0, 0.0
+    d = None
+    for L in lengths:
+        window = {} if L is None else dict(min_step=float(L), max_step=float(L))
+        if L is not None:
+            say(f"step length {L:.3f} m")
+        d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, **window)
+        its, wall = its + info["iterations"], wall + info["wall_s"]
     if cost == "cmt":
         say("continuing from the torque optimum with the c_mt cost")
-        d, info = md.optimize(speed, "cmt", x0=d.x)
+        d, info = md.optimize(speed, "cmt", x0=d.x, **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     info.update(iterations=its, warm_s=wall, cold_s=cold_compile + wall, start=start)
     return d, info
 
 
-def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None) -> dict:
+def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None,
+             step_length=None) -> dict:
     say = progress or (lambda msg: None)
-    d, info = design_gait(speed, cost, progress=progress)
+    d, info = design_gait(speed, cost, progress=progress, step_length=step_length)
     m = wk.walking_model()
     gains = md.controller_gains(m, d)
     pc = None
@@ -190,7 +208,8 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
         negative_work_spring_j=float(f["neg_work_spring"]), negative_work_motor_j=float(f["neg_work_motor"]),
         optimize_warm_s=float(info["warm_s"]), optimize_cold_s=float(info["cold_s"]),
         iterations=int(info["iterations"]), converged=bool(info["success"]), solver_message=info["message"],
-        equality_residual=float(info["eq_residual"]), start=info["start"])
+        equality_residual=float(info["eq_residual"]), start=info["start"],
+        prescribed_step_length_m=step_length)
     if pc is not None:
         rec.update(max_abs_eigenvalue=pc["hzd"]["max_abs_eigenvalue"], poincare_eigenvalues=pc["hzd"]["poincare_eigenvalues"],
                    poincare_eigenvalues_complex=pc["hzd"]["poincare_eigenvalues_complex"],
@@ -240,11 +259,18 @@ def parse_push(text: str | None):
     return force, step
 
 
+#: sensing options: 14-bit encoders with the filtered backward difference (the experiments'),
+#: the same encoders with the model-based velocity observer, or the exact state
+SENSING = ("encoders", "observer", "ideal")
+
+
 def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", lean=0.0, lean_steps=1) -> sw.Setup:
+    if sensing not in SENSING:
+        raise ValueError(f"sensing must be one of {', '.join(SENSING)}, got {sensing!r}")
     f = lambda v: jnp.asarray(v, float)  # noqa: E731
     return sw.Setup(vc=vc, gains=gains, eta=f(eta), push_force=f(push[0]), push_step=jnp.asarray(push[1]),
-                    period=f(period), quantised=f(1.0 if sensing == "encoders" else 0.0), lean=f(lean),
-                    lean_steps=jnp.asarray(int(lean_steps)))
+                    period=f(period), quantised=f(0.0 if sensing == "ideal" else 1.0), lean=f(lean),
+                    lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0))
 
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
