@@ -198,9 +198,11 @@ def sweep(steps, progress, out):
     for v, Jv in zip(speeds, np.asarray(J)):
         ev = mp.eigenvalues(Jv)
         f = designs[v].figures
-        rows.append(dict(target_speed_mps=v, converged=infos[v]["success"], speed_mps=f["speed"],
-                         step_length_m=f["step_length"], cmt=f["cmt"], peak_torques_nm=f["peak_torques"],
-                         max_abs_eigenvalue=float(np.abs(ev[0]))))
+        ok = bool(infos[v]["success"])  # a failed solve's last iterate is no gait: no figures
+        rows.append(dict(target_speed_mps=v, converged=ok, speed_mps=f["speed"] if ok else None,
+                         step_length_m=f["step_length"] if ok else None, cmt=f["cmt"] if ok else None,
+                         peak_torques_nm=f["peak_torques"] if ok else None,
+                         max_abs_eigenvalue=float(np.abs(ev[0])) if ok else None))
     return dict(experiment="sweep", rows=rows, design_s=design_s, eigen_batched_s=eig_s)
 
 
@@ -257,8 +259,10 @@ def summary(r: dict) -> str:
     if name == "sweep":
         lines = ["speed   step (m)  c_mt    max|eig|"]
         for x in r["rows"]:
-            lines.append(f"{x['speed_mps']:.2f}   {x['step_length_m']:.3f}    {x['cmt']:.4f}  {x['max_abs_eigenvalue']:.4f}"
-                         + ("" if x["converged"] else "  (not converged)"))
+            if not x["converged"]:
+                lines.append(f"{x['target_speed_mps']:.2f}   not converged")
+                continue
+            lines.append(f"{x['speed_mps']:.2f}   {x['step_length_m']:.3f}    {x['cmt']:.4f}  {x['max_abs_eigenvalue']:.4f}")
         lines.append(f"design {r['design_s']:.1f} s; eigenvalues of all gaits in one batched call {r['eigen_batched_s']:.1f} s")
         return "\n".join(lines)
     return str(r)
