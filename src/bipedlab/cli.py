@@ -192,9 +192,20 @@ def build_parser() -> argparse.ArgumentParser:
     return p
 
 
+def _json_safe(x):
+    """Non-finite floats (a fallen trial's statistics) -> None, so the JSON stays strict."""
+    if isinstance(x, dict):
+        return {k: _json_safe(v) for k, v in x.items()}
+    if isinstance(x, (list, tuple)):
+        return [_json_safe(v) for v in x]
+    if isinstance(x, float) and not math.isfinite(x):
+        return None
+    return x
+
+
 def _emit(record: dict, as_json: bool, summary) -> None:
     if as_json:
-        print(json.dumps(record, allow_nan=False, default=float))
+        print(json.dumps(_json_safe(record), allow_nan=False, default=float))
     else:
         print(summary(record))
 
@@ -228,11 +239,15 @@ def main(argv=None) -> int:
     if args.study == "run":
         from .studies import run_atrias
 
-        return run_atrias.cli_main(parser, args)
+        rec, summary = run_atrias.cli_record(parser, args, progress=run_atrias.progress_bar)
+        _emit(rec, args.json, summary)
+        return 0
     if getattr(args, "robot", None) == "seven-link":
         from .studies import walk_seven_link
 
-        return walk_seven_link.cli_main(parser, args)
+        rec, summary = walk_seven_link.cli_record(parser, args, progress=_progress)
+        _emit(rec, args.json, summary)
+        return 0
     if args.study == "experiment":
         if args.name not in MABEL_EXPERIMENTS:
             parser.error(f"mabel: experiment must be one of {', '.join(MABEL_EXPERIMENTS)}, got {args.name}")

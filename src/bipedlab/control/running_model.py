@@ -13,6 +13,7 @@ from typing import NamedTuple
 
 import jax.numpy as jnp
 import numpy as np
+import scipy.linalg
 
 
 class ModelParams(NamedTuple):
@@ -122,20 +123,9 @@ def flight_reduced_system(I_t: float, I_m: float):
     return A, B
 
 
-def care(A, B, Q, R):
-    """Continuous algebraic Riccati equation by the stable invariant subspace of the
-    Hamiltonian matrix (independent of SciPy, which the tests compare against)."""
-    n = A.shape[0]
-    Ri = np.linalg.inv(R)
-    Hm = np.block([[A, -B @ Ri @ B.T], [-Q, -A.T]])
-    w, V = np.linalg.eig(Hm)
-    Vs = V[:, w.real < 0]
-    X = np.real(Vs[n:] @ np.linalg.inv(Vs[:n]))
-    return 0.5 * (X + X.T)
-
-
 def lqr_gain(A, B, Q, R):
-    return np.linalg.solve(R, B.T @ care(A, B, Q, R))
+    """K = R^-1 B^T X with X the continuous algebraic Riccati solution (SciPy)."""
+    return np.linalg.solve(R, B.T @ scipy.linalg.solve_continuous_are(A, B, Q, R))
 
 
 def compensated_reference(mp, theta_star, C, H, w_theta, w_phi):

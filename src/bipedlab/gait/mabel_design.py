@@ -210,7 +210,7 @@ def _compiled(cost):
 _COMPILED: dict = {}
 
 
-def _functions(m, speed, cost, window=(0.0, None)):
+def _functions(m, speed, cost, window):
     """Cost, equalities, inequalities and Jacobians as SciPy callbacks, memoised on x."""
     both = _compiled(cost)
     memo = {}
@@ -228,9 +228,8 @@ def _functions(m, speed, cost, window=(0.0, None)):
             lambda x: get(x)[1][1:1 + ne], lambda x: get(x)[0][1 + ne:], lambda x: get(x)[1][1 + ne:])
 
 
-def _problem(speed, cost, model=None, window=(0.0, None)):
-    lo, hi = window
-    return _functions(design_model(model), speed, cost, (lo, MAX_STEP if hi is None else hi))
+def _problem(speed, cost, model=None, window=(0.0, MAX_STEP)):
+    return _functions(design_model(model), speed, cost, window)
 
 
 def compile_problem(speed: float, cost: str, model=None) -> None:

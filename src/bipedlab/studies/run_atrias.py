@@ -250,14 +250,17 @@ def summary(rec: dict) -> str:
     return "\n".join(lines)
 
 
-def _bar(i, n):
+def progress_bar(i, n):
+    """Progress of a run on stderr: simulated seconds i of n."""
     w = 30
     k = int(w * i / n)
     print(f"\r[bipedlab] running [{'#' * k}{'.' * (w - k)}] {i}/{n} s", end="" if i < n else "\n",
           file=sys.stderr, flush=True)
 
 
-def cli_main(parser, args) -> int:
+def cli_record(parser, args, progress=None):
+    """``bipedlab run atrias``: validate the options (``parser.error`` on bad input), run the
+    study; returns (record, summary function)."""
     try:
         errs = parse_model_errors(args.model_error or [])
     except ValueError as e:
@@ -274,20 +277,5 @@ def cli_main(parser, args) -> int:
                   distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
                   delay_ms=float(args.delay_ms), model_error=errs, energy=args.energy, trials=args.trials,
                   seed=int(args.seed))
-    rec = study(st, out_dir=args.out, progress=_bar)
-    if args.json:
-        print(json.dumps(_finite(rec), allow_nan=False, default=float))
-    else:
-        print(summary(rec))
-    return 0
+    return study(st, out_dir=args.out, progress=progress), summary
 
-
-def _finite(x):
-    """NaN / inf -> None so the JSON stays strict."""
-    if isinstance(x, dict):
-        return {k: _finite(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_finite(v) for v in x]
-    if isinstance(x, float) and not np.isfinite(x):
-        return None
-    return x

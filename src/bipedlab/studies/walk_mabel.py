@@ -162,10 +162,10 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
     start, L0 = "given start", None
     if x0 is None:
         x0, start, L0 = _start_point(speed, cost, shipped_only=step_length is not None)
-    lengths = [None]
-    if step_length is not None:
-        n = 1 if L0 is None else max(1, int(np.ceil(abs(step_length - L0) / STEP_CONTINUATION)))
-        lengths = [step_length] if L0 is None else list(np.linspace(L0, step_length, n + 1)[1:])
+    lengths = [None] if step_length is None else [step_length]
+    if step_length is not None and L0 is not None:
+        n = max(1, int(np.ceil(abs(step_length - L0) / STEP_CONTINUATION)))
+        lengths = list(np.linspace(L0, step_length, n + 1)[1:])
     t0 = time.perf_counter()
     say(f"compiling the gait-design problem (speed {speed} m/s); start: {start}")
     md.compile_problem(speed, "torque")

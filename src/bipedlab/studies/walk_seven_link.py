@@ -19,8 +19,6 @@ beside it as ``cmt_positive``.
 from __future__ import annotations
 
 import functools
-import json
-import sys
 from pathlib import Path
 
 import jax
@@ -421,34 +419,28 @@ _WALK_DEFAULTS = (("controller", None, "--controller"), ("gait", None, "--gait")
                   ("sensing", "encoders", "--sensing"), ("perturb", 0.0, "--perturb"), ("seed", 0, "--seed"))
 
 
-def _progress(msg: str) -> None:
-    print(f"[bipedlab] {msg}", file=sys.stderr, flush=True)
-
-
-def cli_main(parser, args) -> int:
-    """``bipedlab walk seven-link`` and ``bipedlab experiment seven-link NAME``."""
+def cli_record(parser, args, progress=None):
+    """``bipedlab walk seven-link`` and ``bipedlab experiment seven-link NAME``: validate the
+    options (``parser.error`` on bad input) and run; returns (record, summary function)."""
+    say = progress or (lambda msg: None)
     if args.study == "walk":
         for attr, default, flag in _WALK_DEFAULTS:
-            if hasattr(args, attr) and getattr(args, attr) != default:
+            if getattr(args, attr) != default:
                 parser.error(f"seven-link: {flag} applies to five-link or mabel, not seven-link")
         steps = args.steps if args.steps is not None else 30
         params = args.params if args.params is not None else "tuned"
-        rec = walk(steps, params, out=args.out, progress=_progress)
+        rec = walk(steps, params, out=args.out, progress=progress)
         summary = summary_walk
     elif args.study == "experiment":
         if args.steps is not None:
-            _progress(f"seven-link {args.name}: --steps has no effect on this experiment")
+            say(f"seven-link {args.name}: --steps has no effect on this experiment")
         if args.name == "free-swing":
-            rec = free_swing(out=args.out, progress=_progress)
+            rec = free_swing(out=args.out, progress=progress)
         elif args.name == "low-gain-pd":
-            rec = low_gain_pd(out=args.out, progress=_progress)
+            rec = low_gain_pd(out=args.out, progress=progress)
         else:
             parser.error(f"seven-link: experiment must be free-swing or low-gain-pd, got {args.name}")
         summary = summary_experiment
     else:
         parser.error(f"seven-link: {args.study} is not available for seven-link")
-    if args.json:
-        print(json.dumps(rec, allow_nan=False, default=float))
-    else:
-        print(summary(rec))
-    return 0
+    return rec, summary
