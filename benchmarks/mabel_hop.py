@@ -11,8 +11,8 @@ import time
 import jax
 
 import bipedlab  # noqa: F401  (float64)
-from bipedlab.control import hopping as hop
-from bipedlab.studies import hop_mabel as hm
+from bipedlab.robots.mabel.hopping import controller as hop
+from bipedlab.robots.mabel.hopping import study as hm
 
 
 def main(hops: int = 100) -> None:

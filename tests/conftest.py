@@ -22,6 +22,6 @@ def mujoco():
 
 @pytest.fixture(scope="session")
 def five():
-    from bipedlab.robots import five_link
+    from bipedlab.robots.five_link import robot as five_link
 
     return five_link.model()

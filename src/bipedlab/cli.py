@@ -180,7 +180,7 @@ def build_parser() -> argparse.ArgumentParser:
     source = i.add_mutually_exclusive_group(required=True)
     source.add_argument("--synthetic", action="store_true",
                         help="generate the paper's experiments on a perturbed true robot and identify it")
-    source.add_argument("--data", metavar="DIR", help="identify from the CSV logs in DIR (format: bipedlab.sysid.logs)")
+    source.add_argument("--data", metavar="DIR", help="identify from the CSV logs in DIR (format: bipedlab.robots.mabel.sysid.logs)")
     i.add_argument("--seed", type=int, default=None, help="synthetic: seed of the true robot and the noise (default 0)")
     i.add_argument("--noise", type=_nonnegative_float, default=None, metavar="LEVEL",
                    help="synthetic: rms encoder noise in counts, also scaling amplifier and scale noise (default 1)")
@@ -217,8 +217,8 @@ def main(argv=None) -> int:
         parser.print_help()
         return 0
     if args.study == "bench":
-        from .sim import use_cpu_cores
-        from .studies import bench
+        from bipedlab.sim import use_cpu_cores
+        from bipedlab.robots.five_link import bench
 
         use_cpu_cores(args.threads)  # batched CPU rollouts use every core, as MuJoCo's do
 
@@ -227,7 +227,7 @@ def main(argv=None) -> int:
         return 0
     _enable_compile_cache()
     if args.study == "hop":
-        from .studies import hop_mabel
+        from bipedlab.robots.mabel.hopping import study as hop_mabel
 
         rec = hop_mabel.study(args.hops, torso_update=not args.no_torso_update, poincare=not args.no_poincare,
                               accuracy=args.accuracy, robustness_samples=args.robustness, out=args.out,
@@ -237,13 +237,13 @@ def main(argv=None) -> int:
     if args.study == "identify":
         return _identify(parser, args)
     if args.study == "run":
-        from .studies import run_atrias
+        from bipedlab.robots.atrias import study as run_atrias
 
         rec, summary = run_atrias.cli_record(parser, args, progress=run_atrias.progress_bar)
         _emit(rec, args.json, summary)
         return 0
     if getattr(args, "robot", None) == "seven-link":
-        from .studies import walk_seven_link
+        from bipedlab.robots.seven_link import study as walk_seven_link
 
         rec, summary = walk_seven_link.cli_record(parser, args, progress=_progress)
         _emit(rec, args.json, summary)
@@ -251,7 +251,7 @@ def main(argv=None) -> int:
     if args.study == "experiment":
         if args.name not in MABEL_EXPERIMENTS:
             parser.error(f"mabel: experiment must be one of {', '.join(MABEL_EXPERIMENTS)}, got {args.name}")
-        from .studies import walk_mabel_experiments as wx
+        from bipedlab.robots.mabel.walking import experiments as wx
 
         rec = wx.run(args.name, steps=args.steps, out=args.out, progress=_progress)
         _emit(rec, args.json, wx.summary)
@@ -267,7 +267,7 @@ def main(argv=None) -> int:
             parser.error("five-link: --push, --impact-scale and --lean apply to mabel only")
         args.controller = args.controller or "iolin"
         args.steps = args.steps or 50
-    from .studies import hzd_five_link as hz
+    from bipedlab.robots.five_link import study as hz
 
     if args.study == "optimize":
         if args.step_length is not None:
@@ -285,8 +285,8 @@ def main(argv=None) -> int:
 
 
 def _identify(parser, args) -> int:
-    from .studies import identify_mabel as im
-    from .sysid import LogError
+    from bipedlab.robots.mabel.sysid import study as im
+    from bipedlab.robots.mabel.sysid import LogError
 
     if args.data is not None and (args.seed is not None or args.noise is not None or args.noise_study):
         parser.error("--seed, --noise and --noise-study apply to --synthetic only")
@@ -301,7 +301,7 @@ def _identify(parser, args) -> int:
 
 
 def _mabel(parser, args) -> int:
-    from .studies import walk_mabel as wm
+    from bipedlab.robots.mabel.walking import study as wm
 
     if args.study == "optimize":
         rec = wm.optimize(args.speed, args.cost, save=args.save, out=args.out, poincare_check=not args.no_poincare,

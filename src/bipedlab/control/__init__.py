@@ -1,4 +1,4 @@
 """Controllers: Bézier virtual constraints and hybrid zero dynamics."""
-from . import bezier, hzd
+from bipedlab.control import bezier, hzd
 
 __all__ = ["bezier", "hzd"]

@@ -20,8 +20,8 @@ from typing import Callable
 import jax
 import jax.numpy as jnp
 
-from ..mechanics.stance import Stance, ground_reaction, stance_affine
-from . import bezier as bz
+from bipedlab.mechanics.stance import Stance, ground_reaction, stance_affine
+from bipedlab.control import bezier as bz
 
 
 @jax.tree_util.register_dataclass

@@ -1,4 +1,4 @@
 """Gait design on the hybrid zero dynamics and Poincaré stability analysis."""
-from . import optimize
+from bipedlab.gait import optimize
 
 __all__ = ["optimize"]

@@ -13,7 +13,7 @@ from pathlib import Path
 import jax.numpy as jnp
 import numpy as np
 
-from ..control.hzd import VirtualConstraints
+from bipedlab.control.hzd import VirtualConstraints
 
 FORMAT = "bipedlab-gait/1"
 
@@ -76,7 +76,13 @@ def load(path) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
     return from_dict(read_json(path), str(path))
 
 
-def shipped(name: str):
-    """A gait shipped with the package, e.g. ``shipped('five_link_0.8')``."""
-    text = resources.files("bipedlab").joinpath("data", f"{name}.json").read_text()
-    return from_dict(json.loads(text), f"bipedlab/data/{name}.json")
+def shipped_text(package: str, name: str) -> tuple[str, str]:
+    """The text of ``data/NAME.json`` shipped inside a robot package, and a label naming it."""
+    return (resources.files(package).joinpath("data", f"{name}.json").read_text(),
+            f"{package.replace('.', '/')}/data/{name}.json")
+
+
+def shipped(package: str, name: str):
+    """A gait shipped with a robot package, e.g. ``shipped('bipedlab.robots.five_link', 'five_link_0.8')``."""
+    text, label = shipped_text(package, name)
+    return from_dict(json.loads(text), label)

@@ -30,9 +30,9 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.optimize
 
-from ..control import hzd
-from ..mechanics.dynamics import total_mass
-from ..mechanics.stance import Stance, impact, swing_height, swing_position
+from bipedlab.control import hzd
+from bipedlab.mechanics.dynamics import total_mass
+from bipedlab.mechanics.stance import Stance, impact, swing_height, swing_position
 
 
 @dataclasses.dataclass(frozen=True)

@@ -3,7 +3,7 @@ Poincaré analysis of both the full closed loop and the restricted (zero-dynamic
 
 The Poincaré section is the impact surface (swing toe on the ground): ``P(z-)`` applies the
 impact and relabelling, then flows under the controller until the next touchdown, located
-exactly (:mod:`bipedlab.sim.hybrid`). Its Jacobian comes from forward-mode autodiff through
+exactly (:mod:`bipedlab.sim.events`). Its Jacobian comes from forward-mode autodiff through
 the hybrid flow, event-time sensitivity included. P maps a neighbourhood of the section into
 the section, so the Jacobian has the restricted map's eigenvalues plus one zero. The restricted
 map ``rho(thetadot-)`` lives on the zero dynamics (one degree of underactuation: one
@@ -18,10 +18,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..control import hzd
-from ..mechanics.stance import Stance, embed, impact, stance_affine, swing_height, swing_position
-from ..sim.hybrid import flow_to_event
-from ..sim.rollout import OK
+from bipedlab.control import hzd
+from bipedlab.mechanics.stance import Stance, embed, impact, stance_affine, swing_height, swing_position
+from bipedlab.sim.events import flow_to_event
+from bipedlab.sim.rollout import OK
 
 
 @dataclasses.dataclass(frozen=True)
@@ -144,7 +144,7 @@ def poincare_jacobian_fd(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1
 
 def restricted_map(vc, st: Stance, theta_dot_minus, nodes: int = 60):
     """rho: pre-impact phase rate -> next pre-impact phase rate, on the zero dynamics."""
-    from .optimize import GaitProblem, integrate_zero_dynamics
+    from bipedlab.gait.optimize import GaitProblem, integrate_zero_dynamics
 
     q, qd = hzd.lift(vc, vc.theta_minus, theta_dot_minus)
     zp, _, _, _ = impact(st, jnp.concatenate([q, qd]))

@@ -25,9 +25,9 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from . import dynamics as dyn
-from . import kinematics as kin
-from .tree import Model
+from bipedlab.mechanics import dynamics as dyn
+from bipedlab.mechanics import kinematics as kin
+from bipedlab.mechanics.tree import Model
 
 
 def _static(a) -> tuple:

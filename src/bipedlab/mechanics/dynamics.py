@@ -17,9 +17,9 @@ from __future__ import annotations
 import jax
 import jax.numpy as jnp
 
-from . import kinematics as kin
-from .kinematics import Frames, Velocities, _add, _cross, _dot, _perp, _scale, _sub
-from .tree import PRISMATIC, Model
+from bipedlab.mechanics import kinematics as kin
+from bipedlab.mechanics.kinematics import Frames, Velocities, _add, _cross, _dot, _perp, _scale, _sub
+from bipedlab.mechanics.tree import PRISMATIC, Model
 
 
 def _dof_kinds(model: Model, fr: Frames):

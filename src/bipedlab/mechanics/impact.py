@@ -14,9 +14,9 @@ from typing import Sequence
 
 import jax.numpy as jnp
 
-from .dynamics import mass_matrix
-from .kinematics import PointRef, point_jacobian
-from .tree import Model
+from bipedlab.mechanics.dynamics import mass_matrix
+from bipedlab.mechanics.kinematics import PointRef, point_jacobian
+from bipedlab.mechanics.tree import Model
 
 
 def impact_map(model: Model, q, qd_minus, point: PointRef):

@@ -12,7 +12,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from .tree import PRISMATIC, Model
+from bipedlab.mechanics.tree import PRISMATIC, Model
 
 Vec = tuple  # a planar vector as a pair of scalars (x, y)
 

@@ -16,7 +16,7 @@ from typing import Mapping, Sequence
 
 import numpy as np
 
-from .tree import PRISMATIC, Model
+from bipedlab.mechanics.tree import PRISMATIC, Model
 
 
 def _f(v) -> str:

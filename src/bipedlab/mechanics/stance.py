@@ -18,10 +18,10 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 
-from .dynamics import bias, mass_matrix
-from .impact import impact_map, relabel
-from .kinematics import point_jacobian, point_jdot_qd, point_position, point_velocity
-from .tree import Model
+from bipedlab.mechanics.dynamics import bias, mass_matrix
+from bipedlab.mechanics.impact import impact_map, relabel
+from bipedlab.mechanics.kinematics import point_jacobian, point_jdot_qd, point_position, point_velocity
+from bipedlab.mechanics.tree import Model
 
 
 @jax.tree_util.register_dataclass

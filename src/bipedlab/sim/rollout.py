@@ -14,8 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ..mechanics._fusion import stage_barriers
-from . import integrators
+from bipedlab.mechanics._fusion import stage_barriers
+from bipedlab.sim import integrators
 
 OK, FELL, NONFINITE = 0, 1, 2
 STATUS_NAMES = {OK: "ok", FELL: "fell", NONFINITE: "non-finite"}

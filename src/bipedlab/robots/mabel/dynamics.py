@@ -17,11 +17,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ...mechanics import compliant_ground as cg
-from ...mechanics import coupled as cp
-from . import tables as tb
-from . import transmission as tr
-from .model import COORDS_13, TOES, Mabel
+from bipedlab.contact import compliant as cg
+from bipedlab.mechanics import coupled as cp
+from bipedlab.robots.mabel import tables as tb
+from bipedlab.robots.mabel import transmission as tr
+from bipedlab.robots.mabel.model import COORDS_13, TOES, Mabel
 
 _H = {c: i for i, c in enumerate(COORDS_13)}
 
@@ -178,6 +178,6 @@ def ground_forces(m: Mabel, x) -> jax.Array:
 
 def com_position(m: Mabel, q) -> jax.Array:
     """Centre of mass of the robot's links (m), boom excluded."""
-    from ...mechanics import dynamics as dyn
+    from bipedlab.mechanics import dynamics as dyn
 
     return dyn.com_position(m.body.tree, cp.tree_coordinates(m.body, q))

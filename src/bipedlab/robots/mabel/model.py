@@ -33,11 +33,11 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from ...mechanics import Body, Point, build_model
-from ...mechanics import compliant_ground as cg
-from ...mechanics import coupled as cp
-from . import tables as tb
-from . import transmission as tr
+from bipedlab.mechanics import Body, Point, build_model
+from bipedlab.contact import compliant as cg
+from bipedlab.mechanics import coupled as cp
+from bipedlab.robots.mabel import tables as tb
+from bipedlab.robots.mabel import transmission as tr
 
 COORDS_13 = ("x", "y", "tor", "la_L", "ls_L", "la_R", "ls_R", "bsp_L", "bsp_R", "mla_L", "mls_L", "mla_R", "mls_R")
 COORDS_9 = ("x", "y", "tor", "la_L", "la_R", "bsp_L", "bsp_R", "mls_L", "mls_R")

@@ -58,7 +58,7 @@ HARD_STOP = dict(kd1=100.0, kvd1=1000.0, kvd2=50.0)
 CABLE_K = {"mLS_L": 2.9565, "mLA_L": 3.5000, "mLS_R": 2.9565, "mLA_R": 3.8094}      # N m/rad (motor)
 CABLE_D = {"mLS_L": 0.0402, "mLA_L": 0.0889, "mLS_R": 0.0804, "mLA_R": 0.3556}      # N m s/rad
 
-# Table VI, ground model (see bipedlab.mechanics.compliant_ground for the force laws).
+# Table VI, ground model (see bipedlab.contact.compliant for the force laws).
 # Table VI lists lambda_v^a = 3.0e6, lambda_v^b = 4.5e6, n = 1.5 and k = 4.38e7 without the
 # formula. Read with Marhefka-Orin's symbols (k the stiffness, the lambdas dampers for
 # compression/restitution), the ground returns about 90 % or more of the energy of a toe

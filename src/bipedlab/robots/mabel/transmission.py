@@ -30,7 +30,7 @@ from __future__ import annotations
 import jax.numpy as jnp
 import numpy as np
 
-from . import tables as tb
+from bipedlab.robots.mabel import tables as tb
 
 #: Per-leg local coordinates the rates below are written in.
 LOCAL = ("la", "ls", "bsp", "mla", "mls")

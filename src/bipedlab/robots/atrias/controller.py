@@ -1,0 +1,380 @@
+"""Controller embedding the spring-mass model in the articulated running robot (running paper,
+Section III): flight LQR with the momentum-compensated reference (III-C), stance energy
+regulation by stiffness modulation (eq. 7) and inverse dynamics (eq. 8) with pitch and
+mean-hip-angle feedback (III-D), the sliding transition (III-E), swing-leg length control
+(III-F) and mode switching (III-G).
+
+``control(cp, cs, meas) -> (cs, u)`` is a pure function of the controller parameters, its
+memory and one measurement; u = (tau1, tau2, F1, F2) in robot leg order.
+
+Choices where the paper is silent or ambiguous (documented, see the study's report):
+- the landing hip angle uses the exact geometry g_a* = atan2(l0 cos a + d sin th,
+  -l0 sin a + d cos th) instead of the paper's small-offset expression;
+- the compensated reference (whose algebra the paper omits) keeps g_a* and moves only the
+  trunk reference, to the minimiser of w_theta (th - th*)^2 + w_phi (phi - pi)^2 on the
+  reachable set of the conserved momentum (:func:`running_model.compensated_reference`);
+- stiffness modulation f = k0 (l0 - l_v) - c dE (l0 - l_v) l_v' (the paper's k = k0 + c dE l_v
+  read with the leg-length rate so the extra work -c dE int (l0 - l_v) l_v'^2 dt opposes dE);
+  c is set so that the nominal stance would remove ``energy_gain`` of dE; dE adds
+  ``ki_energy`` times the sum of past lift-off errors (integral action, clipped), which removes
+  the steady error that the per-step losses (foot sliding, ground damping) leave otherwise;
+  dE is clipped to +-dE_max and the stiffness change to +-k_mod_max of k0, because the work
+  integral, and so the realised gain, grows steeply in the hard landings after step downs;
+- stance feedback (:func:`_stance_feedback`): tau_a = tau_a,ff - l/(l+d) (tau_b,fb +
+  I_t (Kp (th* - th) - Kd th')), tau_b = tau_b,ff + tau_b,fb: with a stationary foot a hip
+  torque turns the GRF, so in these coordinates (those of the paper's eqs. 3, 4) the printed
+  +Kp (th* - th) in tau_1 would destabilise the pitch;
+- sliding -> stance: |x_r' - x_a| < 10 % x_a and the stance command itself within the
+  friction cone (|F_x*| <= mu F_y*), standing in for "the slipping dynamics reduce the speed
+  difference";
+- swing-leg length: the trailing foot is held at 50 % of the COM height above the last
+  stance foot, the landing leg blends to the landing length as the landing-angle error falls
+  below 0.4 rad (full landing length below 0.1 rad), after the flight apex (t_extend = 0; an
+  earlier extension made early landings on step-ups worse in our tests);
+- lift-off (l_v > rest length, extending) only counts once the virtual leg was compressed by
+  c_min = 2 cm since touchdown or t_stance_min = 40 ms have passed: with delayed or noisy
+  sensing the state right after touchdown otherwise can look like a lift-off, and a grazing
+  contact that never compresses the leg still ends;
+- lift-off energy (:func:`_energy`) is that of the whole robot's COM (trunk and feet, m_f in
+  the controller's model), the one quantity conserved exactly in flight, with the target
+  (m + 2 m_f)(g y* + v*^2/2); in regulation the height is measured above the sensed foot
+  height at touchdown. Measured energy budget on flat ground (conservation, before): the
+  COM energy sat 14 J below the target through the whole step (flight, touchdown, stance and
+  lift-off each within 2 J, i.e. no loss between lift-off and apex); the integral action had
+  zeroed the controller's *estimate*, which was biased by the 0.4 kg of feet (9 J of target,
+  the trunk COM instead of the system COM) and in regulation by the foot sunk 1.3 cm into the
+  ground at lift-off (m g 1.3 cm = 7.5 J). This fix alone: -6.7 -> -1.5 cm/s;
+- landing-angle trim: the swing policy's apex height keeps a +0.7 cm bias on the robot (not
+  a point mass on a massless leg), worth -1.4 cm/s at fixed energy; at each lift-off
+  a_trim += ki_angle (h_apex - y*) with h_apex the exact ballistic COM apex above the
+  touchdown ground estimate (dh/da = -1.8 m/rad on the SMM map, so ki_angle = 0.25 rad/m is
+  about half the deadbeat gain), clipped to +-a_trim_max; a* = a*(t) + a_trim;
+- sensing delay (``delay``, s, known to the controller): in flight the delayed state is
+  predicted ballistically (:func:`predict_flight`) before the flight command; the stance
+  spring acts on the constant-rate predicted length l_v + tau l_v' (a spring lagging by tau
+  injects k0 tau int l_v'^2 dt, about 90 J per stance at 10 ms: the speed ran away); the
+  leg-length PD bandwidth is capped at 0.5 / tau (:func:`_leg_pd`: at 10 ms the nominal
+  gains made the swing legs limit-cycle by +-10 cm, the real cause of the early, random
+  touchdowns). A constant-rate prediction of the lift-off test lost every trial; all three
+  are off without delay;
+- a landing with a short virtual leg (early, on a step-up) sets that stance's rest length to
+  the touchdown length (at least 0.8 l0) instead of starting with a pre-compressed spring.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from bipedlab.robots.atrias import controller_model as rm
+from bipedlab.control import slip
+
+FLIGHT, SLIDING, STANCE = 0, 1, 2
+
+
+class CtrlParams(NamedTuple):
+    mp: rm.ModelParams
+    smm: slip.SlipParams          # k0 here is the stiffness the stance control realises
+    policy: slip.SwingPolicy
+    y_apex: float
+    speed: float
+    theta_star: float
+    K: jax.Array                  # flight LQR gain (2x4)
+    tau_max: float
+    regulation: bool              # energy regulation (True) or conservation (False)
+    c_energy: float
+    kp_theta: float = 300.0
+    kd_theta: float = 40.0
+    kp_phi: float = 100.0
+    kd_phi: float = 60.0
+    w_theta: float = 4.0
+    w_phi: float = 1.0
+    kp_leg: float = 3000.0
+    kd_leg: float = 70.0
+    l_min: float = 0.4
+    f_swing_max: float = 250.0
+    t_extend: float = 0.0
+    l_rest_min: float = 0.8
+    c_min: float = 0.02
+    t_stance_min: float = 0.04
+    dt: float = 1e-3
+    ki_energy: float = 0.3
+    e_int_max: float = 600.0
+    dE_max: float = 150.0
+    k_mod_max: float = 0.5
+    ki_angle: float = 0.25
+    a_trim_max: float = 0.03
+    delay: float = 0.0            # known sensing delay (s) that the flight predictor bridges
+    leg_delay_margin: float = 0.5  # leg-length loop bandwidth times the delay (rad), see _leg_pd
+    leg_zeta: float = 0.7
+
+
+class CtrlState(NamedTuple):
+    mode: jax.Array       # FLIGHT / SLIDING / STANCE
+    leg: jax.Array        # index of the stance (or landing) leg
+    dE: jax.Array         # energy error measured at the last lift-off (J)
+    xa: jax.Array         # estimated apex speed (m/s)
+    y_ground: jax.Array   # height of the last stance foot (m, sensed)
+    e_int: jax.Array      # sum of the lift-off energy errors (J), the integral action
+    l_rest: jax.Array     # virtual rest length of this stance (m)
+    compressed: jax.Array # the virtual leg was compressed by c_min since touchdown
+    n_stance: jax.Array   # controller samples since touchdown
+    y_td: jax.Array       # sensed foot height at the last touchdown (the ground estimate)
+    a_trim: jax.Array     # integral landing-angle trim (rad), see :func:`control`
+
+
+class Meas(NamedTuple):
+    q: jax.Array          # (7,) sensed coordinates
+    qd: jax.Array         # (7,)
+    contact: jax.Array    # (2,) foot contact switches
+    foot_y_true: jax.Array  # (2,) true foot heights (unused: conservation takes the global COM height)
+
+
+def init_state(cp: CtrlParams, leg: int = 0) -> CtrlState:
+    i32 = lambda v: jnp.asarray(v, jnp.int32)
+    f64 = lambda v: jnp.asarray(v, jnp.float64)
+    return CtrlState(i32(FLIGHT), i32(leg), f64(0.0), f64(cp.speed), f64(0.0), f64(0.0), f64(cp.smm.l0), jnp.asarray(False), i32(0),
+                      f64(0.0), f64(0.0))
+
+
+def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=1.05,
+                speed=5.0, theta_star=np.deg2rad(10.0), tau_max=250.0, regulation=True, energy_gain=0.5,
+                Q=(4e5, 4e5, 100.0, 100.0), R=(1.0, 1.0), stiffness_scale=1.0) -> CtrlParams:
+    """Controller parameters; the flight LQR gain from the reduced system (A_r, B_r)."""
+    A, B = rm.flight_reduced_system(mp.I_t, mp.I_m)
+    K = rm.lqr_gain(A, B, np.diag(Q), np.diag(R))
+    c = energy_gain / _nominal_work_integral(smm, y_apex, speed)
+    smm_applied = smm._replace(k0=smm.k0 * stiffness_scale)
+    return CtrlParams(mp, smm_applied, policy, y_apex, speed, float(theta_star), jnp.asarray(K), tau_max,
+                      bool(regulation), float(c))
+
+
+def _nominal_work_integral(smm, y_apex, speed, dt=1e-4):
+    """int (l0 - l) l'^2 dt over the periodic SMM stance (so c dE times it is the energy
+    removed per stance)."""
+    gait = slip.Gait(y_apex, speed)
+    a = slip.periodic_angle(smm, gait)
+    s, _ = slip.touchdown_state(smm, y_apex, speed, a)
+    s = np.asarray(s)
+    f = lambda s: np.asarray(slip.stance_flow(smm, jnp.asarray(s)))
+    total = 0.0
+    for _ in range(20000):
+        l = np.linalg.norm(s[:2])
+        ld = s[:2] @ s[2:] / l
+        total += (smm.l0 - l) * ld * ld * dt
+        s = s + dt * f(s)
+        if np.linalg.norm(s[:2]) >= smm.l0 and s[:2] @ s[2:] > 0:
+            break
+    return total
+
+
+def _local(v, leg):
+    """Robot order (x, y, th, g1, g2, l1, l2) -> local (x, y, th, g_a, g_b, l_a, l_b)."""
+    sw = jnp.array([0, 1, 2, 4, 3, 6, 5])
+    return jnp.where(leg == 0, v, v[sw])
+
+
+def landing_hip_angle(cp, theta, alpha):
+    l0, d = cp.smm.l0, cp.mp.d
+    return jnp.arctan2(l0 * jnp.cos(alpha) + d * jnp.sin(theta), -l0 * jnp.sin(alpha) + d * jnp.cos(theta))
+
+
+def landing_length(cp, theta, gamma):
+    """Physical leg length that puts the foot at l0 from the COM."""
+    d, l0 = cp.mp.d, cp.smm.l0
+    c = jnp.cos(gamma - theta)
+    return d * c + jnp.sqrt(jnp.maximum(l0 ** 2 - d ** 2 * (1 - c ** 2), 0.0))
+
+
+def _leg_pd(cp, l_target, l, ld):
+    """Swing-leg length PD, saturated at f_swing_max: an unsaturated retraction right after
+    lift-off, while the foot still touches the ground, pulls the trunk down.
+
+    Under a sensing delay tau the loop around the foot mass m_f (the leg-length coordinate's
+    inertia in flight) becomes unstable: at 10 ms the nominal kp = 3000 N/m (w = 122 rad/s,
+    70 deg of delay phase) put the swing legs into a +-10 cm, 50 ms bang-bang limit cycle so
+    the landing foot met the ground at a random phase of it. The natural frequency is
+    therefore capped at w_tau = leg_delay_margin / tau (kp <= m_f w_tau^2) with damping ratio
+    leg_zeta (kd <= 2 zeta sqrt(kp m_f)); unchanged without delay."""
+    kp, kd = cp.kp_leg, cp.kd_leg
+    if cp.delay > 0 and cp.mp.m_f > 0:
+        w = cp.leg_delay_margin / cp.delay
+        kp = min(kp, cp.mp.m_f * w * w)
+        kd = min(kd, 2 * cp.leg_zeta * (kp * cp.mp.m_f) ** 0.5)
+    return jnp.clip(kp * (l_target - l) - kd * ld, -cp.f_swing_max, cp.f_swing_max)
+
+
+def _tuck_length(cp, q, y_ground, gamma):
+    """Trailing-leg length putting the foot at 50 % of the COM height above the ground."""
+    hip_y = q[1] - cp.mp.d * jnp.cos(q[2])
+    foot_h = 0.5 * (q[1] - y_ground)
+    l = (hip_y - (y_ground + foot_h)) / jnp.maximum(-jnp.cos(gamma), 0.3)
+    return jnp.clip(l, cp.l_min, 1.0)
+
+
+def flight_command(cp, cs, q, qd):
+    """Flight (III-C, III-F) in local coordinates: (tau_a, tau_b, F_a, F_b) and the target
+    landing angle/hip angle for logging."""
+    mp = cp.mp
+    t = -qd[1] / mp.g                                  # time since the flight apex
+    alpha = slip.policy_angle(cp.policy, t) + cs.a_trim
+    alpha_d = slip.policy_rate(cp.policy, t)
+    ga_star, dga = jax.jvp(lambda a: landing_hip_angle(cp, q[2], a), (alpha,), (alpha_d,))
+    H = mp.I_t * qd[2] + mp.I_m * (qd[3] + qd[4])
+    C = mp.I_t * q[2] + mp.I_m * (q[3] + q[4])
+    th_dag, thd_dag = rm.compensated_reference(mp, cp.theta_star, C, H, cp.w_theta, cp.w_phi)
+    xr = jnp.array([q[2], q[3], qd[2], qd[3]])
+    xr_dag = jnp.array([th_dag, ga_star, thd_dag, dga])
+    tau = -cp.K @ (xr - xr_dag)
+    # leg lengths: the landing leg blends from tucked to landing length after apex
+    l_land = landing_length(cp, q[2], ga_star)
+    err = jnp.abs(ga_star - q[3])
+    w = jnp.where(t > -cp.t_extend, jnp.clip((0.4 - err) / 0.3, 0.0, 1.0), 0.0)
+    la_t = w * l_land + (1 - w) * _tuck_length(cp, q, cs.y_ground, q[3])
+    lb_t = _tuck_length(cp, q, cs.y_ground, q[4])
+    F = jnp.array([_leg_pd(cp, la_t, q[5], qd[5]), _leg_pd(cp, lb_t, q[6], qd[6])])
+    return jnp.concatenate([tau, F]), alpha
+
+
+def _spring_force(cp, cs, q6, qd6):
+    """Eq. (7) with the stiffness modulation: target GRF (2,) and l_v."""
+    r = rm.virtual_leg(cp.mp, q6)
+    lv = jnp.linalg.norm(r)
+    J = rm.jac6(cp.mp, q6)
+    # l_v' = rate of the foot-to-COM distance (COM velocity relative to the foot, along r)
+    lvd = jnp.dot(r, qd6[:2] - J @ qd6) / lv
+    # the spring acts on the delay-predicted length: a spring lagging by tau does the extra work
+    # k0 tau int l_v'^2 dt (about 90 J per stance at 10 ms), which no modulation can remove
+    dl = cs.l_rest - (lv + cp.delay * lvd)
+    mod = jnp.clip(cp.c_energy * cs.dE * lvd / cp.smm.k0, -cp.k_mod_max, cp.k_mod_max)
+    f = cp.smm.k0 * dl * (1.0 - mod)
+    return jnp.maximum(f, 0.0) * r / lv, lv, lvd
+
+
+def _phi_feedback(cp, q6, qd6):
+    return cp.kp_phi * (2 * jnp.pi - q6[3] - q6[4]) - cp.kd_phi * (qd6[3] + qd6[4])
+
+
+def _stance_feedback(cp, q6, qd6, tau_a_ff, tau_b_ff):
+    """Feedback of III-D. tau_b_fb drives the mean hip angle to pi; tau_a cancels its trunk
+    reaction and adds the pitch PD. With the foot fixed a change of tau_a turns the GRF and
+    changes the pitch acceleration by -(l + d) / (l I_t) per N m, hence the factor
+    l / (l + d) and the sign (opposite to the paper's printed sign in these coordinates)."""
+    tb = _phi_feedback(cp, q6, qd6)
+    thdd = cp.kp_theta * (cp.theta_star - q6[2]) - cp.kd_theta * qd6[2]
+    r = q6[5] / (q6[5] + cp.mp.d)
+    ta = -r * (tb + cp.mp.I_t * thdd)
+    return tau_a_ff + ta, tau_b_ff + tb
+
+
+def stance_command(cp, cs, q, qd):
+    """Stance (III-D): eq. (7) target GRF, eq. (8) inverse dynamics with pitch feedback as the
+    commanded pitch acceleration, mean-hip-angle feedback on tau_b. Returns (u_local (4,),
+    F* (2,), l_v, l_v', l'' nominal)."""
+    q6, qd6 = q[:6], qd[:6]
+    F, lv, lvd = _spring_force(cp, cs, q6, qd6)
+    z = rm.inverse_dynamics(cp.mp, q6, qd6, F, 0.0)
+    tau_a, tau_b = _stance_feedback(cp, q6, qd6, z[0], z[1])
+    lb_t = _tuck_length(cp, q, cs.y_ground, q[4])
+    u = jnp.array([tau_a, tau_b, z[2], _leg_pd(cp, lb_t, q[6], qd[6])])
+    return u, F, lv, lvd, z[7]
+
+
+def sliding_command(cp, cs, q, qd, stance=None):
+    """Sliding transition (III-E): maximum tau_a against the foot's sliding, scaled vertical
+    load, the nominal leg acceleration."""
+    q6, qd6 = q[:6], qd[:6]
+    _, F, _, _, ldd = stance if stance is not None else stance_command(cp, cs, q, qd)
+    J = rm.jac6(cp.mp, q6)
+    vfoot = J @ qd6
+    slide_dir = jnp.where(vfoot[0] >= 0, 1.0, -1.0)
+    tau_a = -cp.tau_max * jnp.sign(vfoot[0] * J[0, 3])
+    xr = qd6[0] - vfoot[0]
+    Fy = jnp.square(jnp.maximum(0.0, xr / jnp.maximum(cs.xa, 0.5))) * F[1]
+    Fy = jnp.minimum(Fy, F[1])
+    w = rm.sliding_dynamics(cp.mp, q6, qd6, tau_a, Fy, ldd, slide_dir)
+    lb_t = _tuck_length(cp, q, cs.y_ground, q[4])
+    tau_b = w[0] + _phi_feedback(cp, q6, qd6)
+    return jnp.array([tau_a, tau_b, w[1], _leg_pd(cp, lb_t, q[6], qd[6])]), xr
+
+
+def _energy(cp, q, qd, y_ground):
+    """Translational energy of the whole robot's COM (trunk and feet, the foot masses m_f of
+    the controller's model) at lift-off, and the COM apex height it will reach above
+    ``y_ground``. In flight this COM is ballistic, so both are exactly the coming apex's.
+    Regulation measures heights above the ground under the stance foot, estimated as the
+    sensed foot height at touchdown (the foot sinks about 1.3 cm into the ground by lift-off:
+    taking the lift-off foot height over-estimated the energy by m g 1.3 cm = 7.5 J);
+    conservation takes the global height (truth, so only the dissipated energy is replaced).
+    Returns (energy, energy target, apex height above y_ground)."""
+    mp = cp.mp
+    M, g = mp.m + 2 * mp.m_f, mp.g
+    com, vcom = rm.system_com(mp, q, qd)
+    y_ref = jnp.where(cp.regulation, y_ground, 0.0)
+    e = 0.5 * M * (vcom[0] ** 2 + vcom[1] ** 2) + M * g * (com[1] - y_ref)
+    e_star = M * g * cp.y_apex + 0.5 * M * cp.speed ** 2
+    h_apex = com[1] - y_ground + jnp.square(jnp.maximum(vcom[1], 0.0)) / (2 * g)
+    return e, e_star, h_apex
+
+
+def predict_flight(cp, q, qd):
+    """Delay compensation in flight: the trunk moves ballistically over the known sensing delay
+    (exact for the robot's COM, whose difference from the trunk COM is the foot masses' 0.7 %),
+    the joint coordinates at constant rate. Identity when cp.delay = 0."""
+    tau = cp.delay
+    q = q + tau * qd
+    q = q.at[1].add(-0.5 * cp.mp.g * tau * tau)
+    qd = qd.at[1].add(-cp.mp.g * tau)
+    return q, qd
+
+
+def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
+    """One controller sample: switch modes (III-G), then command. Returns (cs, u, info)."""
+    leg = cs.leg
+    q, qd = _local(meas.q, leg), _local(meas.qd, leg)
+    contact_a = jnp.where(leg == 0, meas.contact[0], meas.contact[1]) > 0.5
+    foot_ya = q[1] - cp.mp.d * jnp.cos(q[2]) + q[5] * jnp.cos(q[3])
+
+    # --- mode switching (III-G); a touchdown fixes this stance's rest length first
+    mode = cs.mode
+    to_slide = (mode == FLIGHT) & contact_a
+    lv_td = jnp.linalg.norm(rm.virtual_leg(cp.mp, q[:6]))
+    l_rest = jnp.where(to_slide, jnp.clip(lv_td, cp.l_rest_min * cp.smm.l0, cp.smm.l0), cs.l_rest)
+    compressed = jnp.where(to_slide, False, cs.compressed | ((mode != FLIGHT) & (lv_td < cs.l_rest - cp.c_min)))
+    n_stance = jnp.where(to_slide, 0, cs.n_stance + (mode != FLIGHT).astype(cs.n_stance.dtype))
+    y_td = jnp.where(to_slide, foot_ya, cs.y_td)
+    cs = cs._replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td)
+    st = stance_command(cp, cs, q, qd)
+    u_st, F_st, lv, lvd, _ = st
+    J = rm.jac6(cp.mp, q[:6])
+    vfoot = J @ qd[:6]
+    xr = qd[0] - vfoot[0]
+    speed_ok = jnp.abs(xr - cs.xa) < 0.1 * jnp.abs(cs.xa)
+    cone_ok = jnp.abs(F_st[0]) <= cp.mp.mu * F_st[1]
+    to_stance = (mode == SLIDING) & speed_ok & cone_ok
+    to_flight = (mode != FLIGHT) & (compressed | (n_stance * cp.dt > cp.t_stance_min)) & (lv > cs.l_rest) & (lvd > 0)
+    mode = jnp.where(to_slide, SLIDING, mode)
+    mode = jnp.where(to_stance, STANCE, mode)
+    # lift-off: estimate the energy error and apex speed, hand over to the other leg
+    e_now, e_star, h_apex = _energy(cp, q, qd, y_td)
+    a_trim = jnp.where(to_flight, jnp.clip(cs.a_trim + cp.ki_angle * (h_apex - cp.y_apex),
+                                           -cp.a_trim_max, cp.a_trim_max), cs.a_trim)
+    e_int = jnp.where(to_flight, jnp.clip(cs.e_int + (e_now - e_star), -cp.e_int_max, cp.e_int_max), cs.e_int)
+    dE = jnp.where(to_flight, jnp.clip((e_now - e_star) + cp.ki_energy * e_int, -cp.dE_max, cp.dE_max), cs.dE)
+    xa = jnp.where(to_flight, qd[0], cs.xa)
+    yg = jnp.where(mode != FLIGHT, foot_ya, cs.y_ground)
+    new_leg = jnp.where(to_flight, 1 - leg, leg)
+    mode = jnp.where(to_flight, FLIGHT, mode)
+    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance, y_td, cs.a_trim)
+
+    # --- commands (in the local order of the current leg assignment)
+    qp, qdp = predict_flight(cp, q, qd)
+    u_fl, alpha = flight_command(cp, cs_cmd, qp, qdp)
+    u_sl, _ = sliding_command(cp, cs_cmd, q, qd, st)
+    u_loc = jnp.where(mode == FLIGHT, u_fl, jnp.where(mode == SLIDING, u_sl, u_st))
+    u_loc = u_loc.at[:2].set(jnp.clip(u_loc[:2], -cp.tau_max, cp.tau_max))
+    u = jnp.where(leg == 0, u_loc, u_loc[jnp.array([1, 0, 3, 2])])
+    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance, y_td, a_trim)
+    return cs_new, u, alpha

@@ -1,0 +1,85 @@
+"""The pure spring-mass model running blind over a terrain with the swing policy a*(t)
+(the comparison of the running paper's Fig. 8).
+
+Each step: from lift-off, the ballistic flight with the leg at a*(t) (t = time since the
+flight's apex) until the foot meets the ground (found on a 2 ms grid, refined by bisection),
+then stance on the stationary foot (:func:`bipedlab.control.slip.stance`). Records, per step,
+the bounce height (apex above the ground of the stance before it, the quantity the policy
+targets) and the forward speed at apex. Vmappable over terrains.
+"""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from bipedlab.control import slip
+from bipedlab.contact import terrain as tr
+
+
+class SlipRun(NamedTuple):
+    """bounce (n,), speed (n,), apex_y (n,) global apex height, x (n,) apex position;
+    steps_done: valid entries; fell: bool."""
+
+    bounce: jax.Array
+    speed: jax.Array
+    apex_y: jax.Array
+    x: jax.Array
+    steps_done: jax.Array
+    fell: jax.Array
+
+
+def _touchdown_time(p, pol, terr, s, t_max=2.0, n=1000):
+    """First time after state s = (x, y, vx, vy) at which the foot at a*(t) reaches ground."""
+    t_apex = s[3] / p.g
+
+    def gap(t):
+        a = slip.policy_angle(pol, t - t_apex)
+        fx = s[0] + s[2] * t + p.l0 * jnp.cos(a)
+        fy = s[1] + s[3] * t - 0.5 * p.g * t * t - p.l0 * jnp.sin(a)
+        return fy - tr.ground(terr, fx)
+
+    ts = jnp.linspace(0.0, t_max, n)
+    g = jax.vmap(gap)(ts)
+    # ignore the very start (the foot is at the ground at lift-off)
+    below = (g <= 0.0) & (ts > 0.02)
+    k = jnp.argmax(below)
+    found = jnp.any(below)
+    lo, hi = ts[jnp.maximum(k - 1, 0)], ts[k]
+
+    def bis(_, c):
+        lo, hi = c
+        mid = 0.5 * (lo + hi)
+        m_below = gap(mid) <= 0
+        return jnp.where(m_below, lo, mid), jnp.where(m_below, mid, hi)
+
+    lo, hi = jax.lax.fori_loop(0, 40, bis, (lo, hi))
+    return hi, found
+
+
+def run(p: slip.SlipParams, gait: slip.Gait, pol: slip.SwingPolicy, terr: tr.Terrain, n_steps: int):
+    """n_steps bounces from the target apex at x = 0 (ground level 0 there)."""
+    s0 = jnp.array([0.0, gait.y_apex + tr.ground(terr, 0.0), gait.speed, 0.0])
+    g0 = tr.ground(terr, 0.0)
+
+    def step(c, _):
+        s, fell = c
+        t, found = _touchdown_time(p, pol, terr, s)
+        a = slip.policy_angle(pol, t - s[3] / p.g)
+        pos = s[:2] + s[2:] * t + jnp.array([0.0, -0.5 * p.g * t * t])
+        vel = s[2:] + jnp.array([0.0, -p.g * t])
+        foot = pos + p.l0 * jnp.array([jnp.cos(a), -jnp.sin(a)])
+        s_lo, _, ok = slip.stance(p, jnp.concatenate([pos - foot, vel]))
+        s_new = jnp.concatenate([s_lo[:2] + foot, s_lo[2:]])
+        bad = fell | ~found | ~ok | (s_new[3] <= 0) | (s_new[2] <= 0) | ~jnp.all(jnp.isfinite(s_new))
+        apex_y = s_new[1] + jnp.square(s_new[3]) / (2 * p.g)
+        x_apex = s_new[0] + s_new[2] * s_new[3] / p.g
+        gf = tr.ground(terr, foot[0])
+        rec = (apex_y - gf, s_new[2], apex_y, x_apex, ~bad)
+        s_out = jnp.where(bad, s, s_new)
+        return (s_out, bad), rec
+
+    (_, fell), (bounce, speed, ay, xa, ok) = jax.lax.scan(step, (s0, jnp.asarray(False)), None, length=n_steps)
+    del g0
+    return SlipRun(bounce, speed, ay, xa, jnp.sum(ok), fell)

@@ -1,0 +1,281 @@
+"""Study: spring-mass running embedded in the ATRIAS-like biped over unobserved terrain
+(running paper, Section IV): flat ground, random steps, slopes, sensor noise, delay and model
+errors, beside the pure spring-mass model on the same terrains (Fig. 8).
+
+``simulate`` runs one or many trials batched in one compiled chunk function (time chunks of
+1 s re-use it, with a progress bar on stderr) and returns the per-trial apex records and
+status; ``study`` turns them into the record printed by ``bipedlab run atrias``.
+Statistics skip the first two apexes (the start transient) and, for the robot, count only
+apexes before a fall; ``last10`` holds the mean errors over the last ten apexes of each
+surviving trial (the steady state on flat ground).
+"""
+from __future__ import annotations
+
+import functools
+import json
+import os
+import sys
+import time
+from typing import NamedTuple
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from bipedlab.robots.atrias import controller as rc
+from bipedlab.robots.atrias import controller_model as rm
+from bipedlab.control import slip
+from bipedlab.robots.atrias import robot as at
+from bipedlab.robots.atrias import loop as ar
+from bipedlab.robots.atrias import slip_run
+from bipedlab.contact import terrain as tr
+
+MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
+SKIP_APEX = 2
+_CHUNKS: dict = {}  # compiled chunk functions, re-used across calls in one process
+
+
+class Settings(NamedTuple):
+    terrain: str = "flat"
+    step_height: float = 0.25
+    slope: float = 1.0
+    seconds: float | None = None
+    distance: float = 60.0
+    noise: bool = False
+    delay_ms: float = 0.0
+    model_error: tuple = ()          # ((name, rel), ...)
+    energy: str = "regulation"
+    trials: int | None = None
+    seed: int = 0
+    theta0_offset_deg: float = 0.0  # initial trunk perturbation (flat-ground test of IV-A)
+    rough_grade_percent: float = 0.0  # rough terrain with a persistent slope (IV-B), --slope with rough
+
+
+def parse_model_errors(items) -> tuple:
+    """["mass=0.2", ...] -> (("mass", 0.2), ...); raises ValueError with one line."""
+    out = []
+    for it in items:
+        name, sep, val = str(it).partition("=")
+        if not sep or name not in MODEL_ERRORS:
+            raise ValueError(f"--model-error expects NAME=REL with NAME one of {', '.join(MODEL_ERRORS)}, got {it!r}")
+        try:
+            rel = float(val)
+        except ValueError:
+            raise ValueError(f"--model-error {name}: {val!r} is not a number") from None
+        if not np.isfinite(rel) or rel <= -1.0:
+            raise ValueError(f"--model-error {name}: relative error must be finite and > -1, got {val}")
+        out.append((name, rel))
+    return tuple(out)
+
+
+def build(st: Settings):
+    """Robot, controller parameters (with the model-error scaling) and the nominal policy
+    (cached per model error and energy option)."""
+    return _build(tuple(st.model_error), st.energy)
+
+
+@functools.lru_cache(maxsize=8)
+def _build(model_error, energy):
+    rp = at.AtriasParams()
+    err = dict(model_error)
+    s_m, s_i, s_f, s_k = (1 + err.get(k, 0.0) for k in MODEL_ERRORS)
+    mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, 0.8 * s_f, m_f=rp.m_f * s_m)
+    gait = slip.Gait(1.05, 5.0)
+    smm_ctrl = slip.SlipParams(m=rp.m * s_m)
+    pol, samples = slip.swing_policy(smm_ctrl, gait)
+    cp = rc.make_params(mp, slip.SlipParams(m=rp.m), pol, regulation=(energy == "regulation"),
+                        tau_max=rp.tau_max, stiffness_scale=s_k)
+    return rp, cp, gait, samples
+
+
+def make_terrains(st: Settings, n: int, length: float):
+    rng = np.random.default_rng(st.seed)
+    if st.terrain == "flat":
+        ts = [tr.flat(length) for _ in range(n)]
+    elif st.terrain == "slope":
+        ts = [tr.slope(st.slope, length) for _ in range(n)]
+    else:
+        ts = [tr.rough(rng, st.step_height, length, grade=st.rough_grade_percent / 100.0) for _ in range(n)]
+    return tr.stack(ts)
+
+
+def duration(st: Settings) -> float:
+    return float(st.seconds) if st.seconds else st.distance / 5.0 * 1.25 + 1.0
+
+
+def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: float = 1.0,
+             theta0_offsets_deg=None, dt: float = ar.DT):
+    """Run n trials; returns (dict of numpy arrays with a leading trial axis, plus the logs
+    when asked, and (robot, controller params, gait, terrains)). theta0_offsets_deg: initial
+    trunk perturbation per trial (deg); dt: integration step (s), a divisor of the 1 ms sample."""
+    rp, cp, gait, _ = build(st)
+    T = duration(st)
+    length = (st.distance if not st.seconds else 6.0 * T) + 12.0
+    terr = make_terrains(st, n, length)
+    cfg = ar.RunConfig(noise=st.noise, delay=int(round(st.delay_ms / (ar.CONTROL_DT * 1e3))), log=log,
+                       dt=dt, substeps=int(round(ar.CONTROL_DT / dt)))
+    cp = cp._replace(delay=cfg.delay * ar.CONTROL_DT)  # the controller knows its sensing delay
+    c0 = ar.initial_carry(rp, cp, cfg)
+    c = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n,) + jnp.shape(a)), c0)
+    if theta0_offsets_deg is not None or st.theta0_offset_deg:
+        off = np.deg2rad(np.broadcast_to(theta0_offsets_deg if theta0_offsets_deg is not None
+                                         else st.theta0_offset_deg, (n,)))
+        s = c.s
+        c = c._replace(s=s._replace(q=s.q.at[:, at.ITH].add(jnp.asarray(off))))
+    keys = jax.random.split(jax.random.PRNGKey(st.seed), n)
+    n_chunk = int(round(chunk_s / ar.CONTROL_DT))
+    n_chunks = int(np.ceil(T / chunk_s))
+    key = (tuple(st.model_error), st.energy, cfg, n_chunk)
+    if key not in _CHUNKS:
+        _CHUNKS[key] = ar.make_chunk(rp, cp, cfg, n_chunk, batched=True)
+    f = _CHUNKS[key]
+    logs = []
+    for j in range(n_chunks):
+        c, lg = f(c, terr, keys)
+        if log:
+            logs.append(jax.tree_util.tree_map(np.asarray, lg))
+        if progress:
+            progress(j + 1, n_chunks)
+        done = np.asarray(c.status != ar.OK) | (np.asarray(c.s.q[:, 0]) >= (st.distance if not st.seconds else np.inf))
+        if done.all():
+            break
+    out = dict(status=np.asarray(c.status), x=np.asarray(c.s.q[:, 0]), n_apex=np.asarray(c.n_apex),
+               bounce=np.asarray(c.apex_bounce), speed=np.asarray(c.apex_speed), apex_y=np.asarray(c.apex_y),
+               apex_x=np.asarray(c.apex_x), pitch_rms=np.sqrt(np.asarray(c.pitch_sq) / np.maximum(np.asarray(c.pitch_n), 1)),
+               heights=np.asarray(terr.heights))
+    if log:
+        out["log"] = {k: np.concatenate([lg[k] for lg in logs], axis=1) for k in logs[0]}
+    return out, (rp, cp, gait, terr)
+
+
+def _apex_arrays(out, i):
+    k = min(int(out["n_apex"][i]), ar.MAX_APEX)
+    return out["bounce"][i, SKIP_APEX:k], out["speed"][i, SKIP_APEX:k]
+
+
+def _stats(bounce, speed, gait):
+    if bounce.size == 0:
+        return dict(apex_height_error_mean_m=float("nan"), apex_height_sd_m=float("nan"),
+                    speed_error_mean_mps=float("nan"), speed_sd_mps=float("nan"))
+    return dict(apex_height_error_mean_m=float(np.mean(bounce) - gait.y_apex), apex_height_sd_m=float(np.std(bounce)),
+                speed_error_mean_mps=float(np.mean(speed) - gait.speed), speed_sd_mps=float(np.std(speed)))
+
+
+def slip_model(st: Settings, terr, n: int, gait):
+    """The pure spring-mass model with the same policy on the same terrains."""
+    p = slip.SlipParams(m=at.AtriasParams().m)
+    pol, _ = slip.swing_policy(p, gait)
+    n_steps = int(np.ceil(st.distance / 1.2)) + 4 if not st.seconds else int(np.ceil(st.seconds / 0.4)) + 2
+    run = jax.jit(jax.vmap(lambda h: slip_run.run(p, gait, pol, tr.Terrain(h, terr.step_len, terr.x0, terr.grade),
+                                                    n_steps)))
+    r = jax.tree_util.tree_map(np.asarray, run(terr.heights))
+    fell = r.fell | (r.x[np.arange(n), np.maximum(r.steps_done - 1, 0)] < min(st.distance, 1e9) - 3.0) \
+        if not st.seconds else r.fell
+    b = np.concatenate([r.bounce[i, SKIP_APEX:r.steps_done[i]] for i in range(n) if not fell[i]] or [np.zeros(0)])
+    s = np.concatenate([r.speed[i, SKIP_APEX:r.steps_done[i]] for i in range(n) if not fell[i]] or [np.zeros(0)])
+    rec = dict(success_rate=float(1 - np.mean(fell)), **_stats(b, s, gait))
+    return rec, r
+
+
+def study(st: Settings, out_dir=None, progress=None) -> dict:
+    n = st.trials or 1
+    t0 = time.time()
+    out, (rp, cp, gait, terr) = simulate(st, n, log=bool(out_dir) and st.trials is None, progress=progress)
+    wall = time.time() - t0
+    target = st.distance if not st.seconds else -np.inf
+    fell = out["status"] != ar.OK
+    reached = out["x"] >= target
+    ok = ~fell
+    survivors = [i for i in range(n) if ok[i]]
+    b = np.concatenate([_apex_arrays(out, i)[0] for i in survivors] or [np.zeros(0)])
+    s = np.concatenate([_apex_arrays(out, i)[1] for i in survivors] or [np.zeros(0)])
+    rec = dict(robot="atrias", terrain=st.terrain, energy=st.energy, noise=st.noise, delay_ms=st.delay_ms,
+               model_error=dict(st.model_error), seed=st.seed)
+    if st.terrain == "rough":
+        rec["step_height_m"] = st.step_height
+        if st.rough_grade_percent:
+            rec["slope_percent"] = st.rough_grade_percent
+    if st.terrain == "slope":
+        rec["slope_percent"] = st.slope
+    single = st.trials is None
+    rec.update(fell=bool(fell[0]) if single else int(fell.sum()),
+               distance_m=float(out["x"][0]) if single else float(np.mean(out["x"])),
+               reached_target=bool(reached.all()), **_stats(b, s, gait),
+               trunk_pitch_rms_deg=float(np.rad2deg(np.mean(out["pitch_rms"][ok]))) if ok.any() else float("nan"),
+               apexes=int(b.size), wall_s=wall)
+    tail = [(out["bounce"][i, max(SKIP_APEX, k - 10):k], out["speed"][i, max(SKIP_APEX, k - 10):k])
+            for i in survivors for k in [min(int(out["n_apex"][i]), ar.MAX_APEX)]]
+    if tail:
+        tb, ts = np.concatenate([a for a, _ in tail]), np.concatenate([b for _, b in tail])
+        rec["last10"] = dict(apex_height_error_mean_m=float(tb.mean() - gait.y_apex),
+                             speed_error_mean_mps=float(ts.mean() - gait.speed))
+    if single:
+        rec["status"] = ar.STATUS_NAMES[int(out["status"][0])]
+    else:
+        rec.update(success_rate=float(np.mean(ok)), trials=n)
+    srec, sr = slip_model(st, terr, n, gait)
+    rec["slip_model"] = srec
+    if out_dir:
+        _write_outputs(out_dir, st, out, sr, cp, gait, rec)
+    return rec
+
+
+def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
+    os.makedirs(out_dir, exist_ok=True)
+    data = {k: v for k, v in out.items() if k != "log"}
+    if "log" in out:
+        for k, v in out["log"].items():
+            data["log_" + k] = v[0]
+    data.update(slip_bounce=sr.bounce, slip_speed=sr.speed, slip_apex_y=sr.apex_y, slip_x=sr.x)
+    np.savez(os.path.join(out_dir, "run_atrias.npz"), **data)
+    with open(os.path.join(out_dir, "run_atrias.json"), "w") as fh:
+        json.dump(rec, fh, indent=1, allow_nan=True, default=float)
+    from bipedlab.robots.atrias import plots as run_plots
+
+    run_plots.write_all(out_dir, out, sr, cp, gait)
+
+
+def summary(rec: dict) -> str:
+    lines = [f"ATRIAS-like biped running, terrain {rec['terrain']}, energy {rec['energy']}"]
+    if "trials" in rec:
+        lines.append(f"  trials {rec['trials']}: success {100 * rec['success_rate']:.1f} %, wall {rec['wall_s']:.1f} s")
+    else:
+        lines.append(f"  fell: {rec['fell']}  distance {rec['distance_m']:.1f} m")
+    lines.append(f"  apex height error {100 * rec['apex_height_error_mean_m']:+.1f} cm (s.d. {100 * rec['apex_height_sd_m']:.1f} cm),"
+                 f" speed error {100 * rec['speed_error_mean_mps']:+.1f} cm/s (s.d. {100 * rec['speed_sd_mps']:.1f} cm/s)")
+    lines.append(f"  trunk pitch rms error {rec['trunk_pitch_rms_deg']:.2f} deg over {rec['apexes']} apexes")
+    s = rec["slip_model"]
+    lines.append(f"  spring-mass model: success {100 * s['success_rate']:.0f} %, apex s.d. {100 * s['apex_height_sd_m']:.1f} cm,"
+                 f" speed s.d. {100 * s['speed_sd_mps']:.1f} cm/s")
+    return "\n".join(lines)
+
+
+def progress_bar(i, n):
+    """Progress of a run on stderr: simulated seconds i of n."""
+    w = 30
+    k = int(w * i / n)
+    print(f"\r[bipedlab] running [{'#' * k}{'.' * (w - k)}] {i}/{n} s", end="" if i < n else "\n",
+          file=sys.stderr, flush=True)
+
+
+def cli_record(parser, args, progress=None):
+    """``bipedlab run atrias``: validate the options (``parser.error`` on bad input), run the
+    study; returns (record, summary function)."""
+    try:
+        errs = parse_model_errors(args.model_error or [])
+    except ValueError as e:
+        parser.error(str(e))
+    if args.step_height is not None and args.terrain != "rough":
+        parser.error(f"--step-height applies to --terrain rough, not {args.terrain}")
+    if args.slope is not None and args.terrain == "flat":
+        parser.error("--slope applies to --terrain slope or rough, not flat")
+    if args.slope is not None and not (np.isfinite(args.slope) and abs(args.slope) <= 30.0):
+        parser.error(f"--slope must be a grade within +-30 percent, got {args.slope}")
+    st = Settings(terrain=args.terrain, step_height=0.25 if args.step_height is None else float(args.step_height),
+                  slope=1.0 if args.slope is None else float(args.slope), seconds=args.seconds,
+                  rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain == "rough") else 0.0,
+                  distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
+                  delay_ms=float(args.delay_ms), model_error=errs, energy=args.energy, trials=args.trials,
+                  seed=int(args.seed))
+    return study(st, out_dir=args.out, progress=progress), summary
+

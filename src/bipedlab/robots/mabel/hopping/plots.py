@@ -1,0 +1,97 @@
+"""Figures for MABEL's hopping study, after the identification paper's Figs. 21-23."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bipedlab.robots.mabel import tables as tb
+
+
+def _plt():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt
+
+
+def _window(run, first_hop: int, hops: int = 2):
+    """Sample indices covering ``hops`` hops from touchdown number first_hop (clipped)."""
+    td = run.touchdowns
+    k0 = min(first_hop, max(len(td) - hops - 1, 0))
+    t0 = td[k0] if len(td) else run.t[0]
+    t1 = td[k0 + hops] if len(td) > k0 + hops else run.t[-1]
+    return (run.t >= t0) & (run.t <= t1)
+
+
+def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30) -> list[str]:
+    """Joint angles and hip position (Fig. 21), torques (Fig. 22), cable stretch (Fig. 23) over
+    two hops, and the hop period over the run. Returns the written paths."""
+    from bipedlab.robots.mabel.hopping.study import _I
+
+    plt = _plt()
+    out = Path(out)
+    out.mkdir(parents=True, exist_ok=True)
+    w = _window(run, first_hop)
+    t, x = run.t[w], run.x[w]
+    paths = []
+
+    fig, ax = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
+    for k, s in enumerate(tb.SIDES):
+        ax[0, k].plot(t, np.rad2deg(x[:, _I[f"la_{s}"]]), label="q_LA")
+        ax[0, k].set_title(f"{'left' if s == 'L' else 'right'} leg")
+        ax[1, k].plot(t, np.rad2deg(x[:, _I[f"ls_{s}"]]), label="q_LS")
+        ax[1, k].plot(t, np.rad2deg(x[:, _I[f"bsp_{s}"]]), label="q_Bsp")
+        ax[0, k].set_ylabel("leg angle (deg)")
+        ax[1, k].set_ylabel("deg")
+        ax[1, k].legend(loc="best", fontsize=8)
+    ax[2, 0].plot(t, x[:, _I["y"]], color="C1")
+    ax[2, 0].set_ylabel("hip height (m)", color="C1")
+    travel = ax[2, 0].twinx()
+    travel.plot(t, x[:, _I["x"]] - x[0, _I["x"]], color="C0")
+    travel.set_ylabel("hip travel (m)", color="C0")
+    ax[2, 1].plot(t, np.rad2deg(x[:, _I["tor"]]))
+    ax[2, 1].set_ylabel("torso angle (deg)")
+    for a in ax[2]:
+        a.set_xlabel("time (s)")
+    fig.suptitle("MABEL hopping: joint angles and hip position (cf. Fig. 21)")
+    fig.tight_layout()
+    paths.append(_save(fig, out / "hop_joints.png", plt))
+
+    paths.append(_per_actuator(plt, t, run.u[w], "command (N m)", "Motor torque commands (cf. Fig. 22)",
+                               out / "hop_torques.png"))
+    paths.append(_per_actuator(plt, t, np.rad2deg(stretch[w]), "stretch, motor side (deg)",
+                               "Cable stretch in motor coordinates (cf. Fig. 23)", out / "hop_cable_stretch.png"))
+
+    if len(run.touchdowns) > 2:
+        fig, ax = plt.subplots(figsize=(7, 3.5))
+        ax.plot(np.arange(1, len(run.touchdowns)), np.diff(run.touchdowns), ".-")
+        ax.set_xlabel("hop")
+        ax.set_ylabel("period (s)")
+        ax.set_title("Hop period, touchdown to touchdown")
+        fig.tight_layout()
+        paths.append(_save(fig, out / "hop_periods.png", plt))
+    return paths
+
+
+def _per_actuator(plt, t, data, ylabel: str, title: str, path: Path) -> str:
+    """One panel per actuator (tables.ACTUATORS order) of data (N, 4) against t."""
+    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    for k, a in enumerate(tb.ACTUATORS):
+        axk = ax[k % 2, k // 2]
+        axk.plot(t, data[:, k])
+        axk.set_title(a)
+        axk.set_ylabel(ylabel)
+    for a in ax[1]:
+        a.set_xlabel("time (s)")
+    fig.suptitle(title)
+    fig.tight_layout()
+    return _save(fig, path, plt)
+
+
+def _save(fig, path: Path, plt) -> str:
+    fig.savefig(path, dpi=110)
+    plt.close(fig)
+    return str(path)

@@ -1,0 +1,1 @@
+"""bipedlab.robots.mabel.walking.stance."""

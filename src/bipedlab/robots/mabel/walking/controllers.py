@@ -1,0 +1,145 @@
+"""Controllers that realise MABEL's walking virtual constraints (compliant-HZD paper, Section IV
+and V).
+
+- ``iolin``: the input-output linearising controller (eq. 42), ``u = (LgLfh)^-1 (v - Lf^2 h)``
+  with ``v = -(Kp/eps^2) y - (Kd/eps) y-dot``; with hybrid-invariance corrections (eq. 45) when
+  the constraints are updated at impact (:func:`~bipedlab.robots.mabel.walking.constraints.update_at_impact`).
+- ``decentralized``: the same with the off-diagonal entries of the decoupling matrix zeroed
+  in the feedback term (Exp. 5): ``u = u*(x_s) + diag(LgLfh)^-1 v``, where the feedforward
+  ``u* = -(LgLfh)^-1 Lf^2 h`` of eq. 32 keeps the full matrix, so that an error in one output
+  drives only its own motor.
+- ``pdff``: PD plus feedforward (eq. 43), ``u = u*(theta, beta) - Kp y - Kd y-dot`` with u*
+  regressed along the designed orbit on 5th-order Béziers in theta per sub-phase (beta) and
+  the PD acting through each output's own motor (stance leg-shape motor -> q_mLS_st, swing
+  leg-angle motor -> q_LA_sw, swing leg-shape motor -> q_mLS_sw, stance leg-angle motor ->
+  q_Tor), with the sign of that motor's effect on its output.
+
+All controllers saturate at the drivetrain's torque limits (30 N m leg angle, 55 N m leg
+shape, or the lower limits of an experiment).
+"""
+from __future__ import annotations
+
+import dataclasses
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from bipedlab.robots.mabel.walking import stance as wk
+from bipedlab.control import bezier as bz
+from bipedlab.robots.mabel.walking import constraints as vcm
+
+KINDS = ("pdff", "iolin", "decentralized")
+#: actuator (in u = (mLA_st, mLS_st, mLA_sw, mLS_sw)) driving each output (mLS_st, LA_sw, mLS_sw, Tor)
+ACTUATOR_OF_OUTPUT = (1, 2, 3, 0)
+_THETA_Q = jnp.asarray([-1.0, 0.0, 0.0, 0.0, 0.0, -1.0])
+
+
+@jax.tree_util.register_dataclass
+@dataclasses.dataclass(frozen=True)
+class Gains:
+    """kp, kd (4,) per output for pdff (motor N m per rad, per rad/s of the output);
+    eps, kp_io, kd_io for eq. 42; beta (4 phases, 4 actuators, 6): u* Béziers; beta_bounds
+    (4, 2): theta-domain of each phase's regression; signs (4,): sign of each output's motor;
+    limit (4,): torque saturation (N m)."""
+
+    kp: jax.Array
+    kd: jax.Array
+    eps: jax.Array
+    kp_io: jax.Array
+    kd_io: jax.Array
+    beta: jax.Array
+    beta_bounds: jax.Array
+    signs: jax.Array
+    limit: jax.Array
+
+    def replace(self, **kw) -> "Gains":
+        return dataclasses.replace(self, **kw)
+
+
+def output_jacobian(dh):
+    """dy/dq_s (4, 6) given dh/dtheta (4,)."""
+    H0 = jnp.zeros((4, 6)).at[jnp.arange(4), jnp.asarray(vcm.H0_INDEX)].set(1.0)
+    return H0 - dh[:, None] * _THETA_Q[None, :]
+
+
+def decoupling(m, vc, phase, z, terms=None):
+    """(y, y-dot, LgLfh (4, 4), Lf^2 h (4,)) at the stance state z; ``terms`` = (D_s, H_s, B_s)
+    when the caller has them."""
+    qs, qds = z[:6], z[6:]
+    th, thd = vcm.theta(qs), vcm.theta_rate(qds)
+    h, dh, ddh = vcm.desired_derivatives(vc, phase, th)
+    D, H, B = wk.stance_terms(m, qs, qds) if terms is None else terms
+    Jy = output_jacobian(dh)
+    y = vcm.controlled(qs) - h
+    yd = Jy @ qds
+    DiB = jnp.linalg.solve(D, jnp.concatenate([B, H[:, None]], 1))
+    A = Jy @ DiB[:, :4]
+    lf2 = -Jy @ DiB[:, 4] - ddh * thd**2
+    return y, yd, A, lf2
+
+
+def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False, terms=None):
+    """Eq. 42 (decentralised: diagonal decoupling matrix)."""
+    y, yd, A, lf2 = decoupling(m, vc, phase, z, terms)
+    v = -(g.kp_io / g.eps**2) * y - (g.kd_io / g.eps) * yd
+    if decentralized:
+        # u*(x_s) of eq. 32 in full; only the feedback sees the diagonal (each output's own motor)
+        act = jnp.asarray(ACTUATOR_OF_OUTPUT)
+        u = jnp.linalg.solve(A, -lf2) + jnp.zeros(4).at[act].set(v / jnp.diag(A[:, act]))
+    else:
+        u = jnp.linalg.solve(A, v - lf2)
+    return jnp.clip(u, -g.limit, g.limit)
+
+
+def feedforward(g: Gains, phase, th):
+    """u*(theta, beta) of eq. 43 (phase saturated outside its interval as the constraints are)."""
+    a, b = g.beta_bounds[phase, 0], g.beta_bounds[phase, 1]
+    return bz.bezier(g.beta[phase], vcm.saturated_phase(th, a, b))
+
+
+def pd_feedforward(phase, y, yd, th, g: Gains):
+    """Eq. 43 from the outputs (y, y-dot) and theta."""
+    pd = -(g.kp * y + g.kd * yd) * g.signs
+    u = feedforward(g, phase, th) + jnp.zeros(4).at[jnp.asarray(ACTUATOR_OF_OUTPUT)].set(pd)
+    return jnp.clip(u, -g.limit, g.limit)
+
+
+def pdff(m, vc, phase, z, g: Gains):
+    y, yd = vcm.outputs(vc, phase, z[:6], z[6:])
+    return pd_feedforward(phase, y, yd, vcm.theta(z[:6]), g)
+
+
+def control(kind: str, m, vc, phase, z, g: Gains, terms=None):
+    """The torque of controller ``kind`` (one of :data:`KINDS`) at the stance state z."""
+    if kind == "pdff":
+        return pdff(m, vc, phase, z, g)
+    return iolin(m, vc, phase, z, g, decentralized=(kind == "decentralized"), terms=terms)
+
+
+def regress_feedforward(thetas, us, phases, bounds, order: int = 5):
+    """beta (4, 4, order+1): least-squares Bézier fit of u* against theta in each sub-phase
+    (samples thetas (N,), us (N, 4), phases (N,); bounds (4, 2) the phase domains)."""
+    thetas, us, phases, bounds = (np.asarray(a) for a in (thetas, us, phases, bounds))
+    beta = np.zeros((4, 4, order + 1))
+    for p in range(4):
+        sel = phases == p
+        s = (thetas[sel] - bounds[p, 0]) / (bounds[p, 1] - bounds[p, 0])
+        basis = np.asarray(bz._bernstein(order, jnp.asarray(s)))
+        beta[p] = np.linalg.lstsq(basis, us[sel], rcond=None)[0].T
+    return beta
+
+
+def output_signs(m, vc, z):
+    """Sign of each output's own motor in the decoupling matrix at z (phase MC)."""
+    A = decoupling(m, vc, vcm.MC, z)[2]
+    return np.sign(np.asarray(A)[np.arange(4), list(ACTUATOR_OF_OUTPUT)])
+
+
+def default_gains(beta, bounds, signs, limit=None) -> Gains:
+    """PD gains (tuned on the nominal gait: stable Poincaré map, small tracking error) and the
+    eq. 42 gains eps = 0.05, Kp = 1, Kd = 2 (a double pole at -1/eps)."""
+    f = lambda v: jnp.asarray(v, float)  # noqa: E731
+    lim = f([30.0, 55.0, 30.0, 55.0] if limit is None else limit)
+    return Gains(kp=f([3.5, 45.0, 3.5, 60.0]), kd=f([0.05, 1.2, 0.05, 3.0]), eps=f(0.05), kp_io=f(1.0),
+                 kd_io=f(2.0), beta=f(beta), beta_bounds=f(bounds), signs=f(signs), limit=lim)

@@ -1,0 +1,342 @@
+"""MABEL's compliant-HZD walking studies (compliant-HZD paper, Sections III-VI).
+
+``optimize``: a fixed point designed on the compliant zero dynamics (torque or c_mt cost),
+its figures (speed, step length, c_mt, peak torques, the spring's share of the negative work
+at the stance leg shape) and its Poincaré eigenvalues under PD + feedforward (eq. 44, full
+order) and under the compliant HZD controller (eq. 48, restricted map).
+
+``walk``: the closed loop of the experiments, 1 kHz sampling with 14-bit encoders, under
+PD + feedforward, I/O linearisation with hybrid-invariance corrections, or its decentralised
+form; optional push (Exp. 2) and impact scaling (Section VI-B).
+
+Gaits are JSON records (:data:`FORMAT`) holding the decision vector, the constraints, the
+fixed point, the u* regression and the design figures; ``nominal``, ``efficient`` and ``fast``
+ship with the package.
+"""
+from __future__ import annotations
+
+import json
+import time
+
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from bipedlab.robots.mabel.walking import constraints as vcm
+from bipedlab.robots.mabel.walking import controllers as ctl
+from bipedlab.gait import gaitfile
+from bipedlab.robots.mabel.walking import design as md
+from bipedlab.robots.mabel.walking import poincare as mp
+from bipedlab.robots.mabel.walking.zero_dynamics import robot_mass
+from bipedlab.robots.mabel.walking import stance as wk
+from bipedlab.robots.mabel.walking import loop as sw
+
+FORMAT = "bipedlab-mabel-gait/1"
+GAITS = ("nominal", "efficient", "fast")
+CONTROLLERS = ctl.KINDS
+OUTPUT_NAMES = vcm.OUTPUTS
+#: The paper's figures, for side-by-side reports.
+PAPER = dict(step_length_nominal=0.575, cmt_nominal=0.0452, cmt_efficient=0.0385, eig_pdff_nominal=0.6921,
+             eig_pdff_efficient=0.8194, eig_hzd_nominal=0.7258, eig_hzd_efficient=0.7065, fast_speed=1.5,
+             impact_scaling={1.0: 0.80, 0.99: 0.86, 0.98: 0.92, 0.97: 0.98, 0.966: 1.00, 0.96: 1.04})
+
+
+# ----------------------------------------------------------------------------- gait records
+
+def _vc_dict(vc) -> dict:
+    return {k: np.asarray(getattr(vc, k)).tolist() for k in vc.__dataclass_fields__}
+
+
+def _vc_from(d: dict) -> vcm.Constraints:
+    return vcm.Constraints(**{k: jnp.asarray(np.asarray(d[k], float)) for k in vcm.Constraints.__dataclass_fields__})
+
+
+def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: str, poincare: dict | None) -> dict:
+    return dict(format=FORMAT, robot="mabel", name=name, speed=speed, cost=cost, x=np.asarray(design.x).tolist(),
+                constraints=_vc_dict(design.vc), z_minus=np.asarray(design.z_minus).tolist(),
+                z_plus=np.asarray(design.z_plus).tolist(),
+                feedforward=dict(beta=np.asarray(gains.beta).tolist(), bounds=np.asarray(gains.beta_bounds).tolist(),
+                                 signs=np.asarray(gains.signs).tolist()),
+                design=design.figures, poincare=poincare)
+
+
+def from_record(d: dict, source: str):
+    """(constraints, gains, record); ValueError naming the source and the problem."""
+    if not isinstance(d, dict) or d.get("format") != FORMAT:
+        raise ValueError(f"{source}: not a MABEL gait file (expected format {FORMAT!r})")
+    try:
+        vc = _vc_from(d["constraints"])
+        ff = d["feedforward"]
+        gains = ctl.default_gains(np.asarray(ff["beta"], float), np.asarray(ff["bounds"], float),
+                                  np.asarray(ff["signs"], float))
+        for k in ("z_minus", "z_plus"):
+            if np.asarray(d[k], float).shape != (12,):
+                raise ValueError(f"{k} must have 12 entries")
+    except (KeyError, TypeError, ValueError) as e:
+        raise ValueError(f"{source}: missing or malformed field ({e})") from None
+    if not all(np.all(np.isfinite(np.asarray(leaf))) for leaf in jax.tree_util.tree_leaves(vc)):
+        raise ValueError(f"{source}: non-finite values (NaN or Infinity)")
+    return vc, gains, d
+
+
+def load_gait(name_or_path: str):
+    if name_or_path in GAITS:
+        text, label = gaitfile.shipped_text("bipedlab.robots.mabel", f"mabel_{name_or_path}")
+        return from_record(json.loads(text), label)
+    d = gaitfile.read_json(name_or_path, f"not a shipped gait ({', '.join(GAITS)}) and cannot be read")
+    return from_record(d, str(name_or_path))
+
+
+def _design_from_record(rec: dict) -> md.Design:
+    vc = _vc_from(rec["constraints"])
+    return md.Design(np.asarray(rec["x"], float), vc, np.asarray(rec["z_minus"], float),
+                     np.asarray(rec["z_plus"], float), rec["design"])
+
+
+# ----------------------------------------------------------------------------- Poincaré
+
+def _eig_summary(ev) -> dict:
+    ev = np.asarray(ev)
+    return dict(max_abs_eigenvalue=float(np.abs(ev[0])), poincare_eigenvalues=[float(a) for a in np.abs(ev)],
+                poincare_eigenvalues_complex=[[float(e.real), float(e.imag)] for e in ev])
+
+
+def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_check: bool = False) -> dict:
+    """Eigenvalues of the restricted map (eq. 48, compliant HZD controller) and of the full
+    closed-loop map (eq. 44) under each controller, at their own fixed points; with fd_check,
+    the largest relative difference between the autodiff and central-difference Jacobians."""
+    m = wk.walking_model()
+    vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
+    z0, x0 = md.section_state(m, design)
+    out = {}
+    rho = lambda x: mp.restricted_map(m, vc, x)  # noqa: E731
+    xs, J, res = mp.fixed_point(rho, x0)
+    out["hzd"] = dict(**_eig_summary(mp.eigenvalues(J)), fixed_point_residual=res, map="restricted (eq. 48)")
+    if fd_check:
+        Jfd = mp.central_differences(rho, xs)
+        out["hzd"]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
+    for kind in controllers:
+        P = lambda z, kind=kind: mp.full_map(m, kind, gains, vc, z)  # noqa: E731
+        zs, J, res = mp.fixed_point(P, z0)
+        ev = mp.eigenvalues(J)
+        out[kind] = dict(**_eig_summary(ev), fixed_point_residual=res, map="full order (eq. 44)")
+        if fd_check:
+            Jfd = mp.central_differences(P, zs)
+            out[kind]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
+    return out
+
+
+# ----------------------------------------------------------------------------- optimize
+
+def _start_point(speed: float, cost: str, shipped_only: bool = False):
+    """The hand-set guess near 0.8 m/s; otherwise (or with ``shipped_only``) the shipped gait
+    nearest in speed (continuation). Returns (x0, description, its step length or None)."""
+    if abs(speed - 0.8) < 0.15 and not shipped_only:
+        return md.initial_guess(speed), "hand-set initial guess", None
+    best = None
+    for g in GAITS:
+        try:
+            _, _, rec = load_gait(g)
+        except (OSError, ValueError):
+            continue
+        if best is None or abs(rec["speed"] - speed) < abs(best["speed"] - speed):
+            best = rec
+    if best is None:
+        return md.initial_guess(speed), "hand-set initial guess", None
+    return (np.asarray(best["x"], float), f"shipped gait '{best['name']}' ({best['speed']:.2f} m/s)",
+            float(best["design"]["step_length"]))
+
+
+#: largest change of a prescribed step length per continuation solve (m)
+STEP_CONTINUATION = 0.03
+
+
+def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None):
+    """Optimise (torque cost first; for c_mt, continue from the torque optimum). With
+    ``step_length`` (m) the step is prescribed, reached from the nearest shipped gait by
+    continuation in increments of at most STEP_CONTINUATION. Returns (design, info with warm
+    and cold times)."""
+    say = progress or (lambda msg: None)
+    start, L0 = "given start", None
+    if x0 is None:
+        x0, start, L0 = _start_point(speed, cost, shipped_only=step_length is not None)
+    lengths = [None] if step_length is None else [step_length]
+    if step_length is not None and L0 is not None:
+        n = max(1, int(np.ceil(abs(step_length - L0) / STEP_CONTINUATION)))
+        lengths = list(np.linspace(L0, step_length, n + 1)[1:])
+    t0 = time.perf_counter()
+    say(f"compiling the gait-design problem (speed {speed} m/s); start: {start}")
+    md.compile_problem(speed, "torque")
+    if cost == "cmt":
+        md.compile_problem(speed, "cmt")
+    cold_compile = time.perf_counter() - t0
+    its, wall = 0, 0.0
+    d = None
+    for L in lengths:
+        window = {} if L is None else dict(min_step=float(L), max_step=float(L))
+        if L is not None:
+            say(f"step length {L:.3f} m")
+        d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, **window)
+        its, wall = its + info["iterations"], wall + info["wall_s"]
+    if cost == "cmt":
+        say("continuing from the torque optimum with the c_mt cost")
+        d, info = md.optimize(speed, "cmt", x0=d.x, **window)
+        its, wall = its + info["iterations"], wall + info["wall_s"]
+    info.update(iterations=its, warm_s=wall, cold_s=cold_compile + wall, start=start)
+    return d, info
+
+
+def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None,
+             step_length=None) -> dict:
+    say = progress or (lambda msg: None)
+    d, info = design_gait(speed, cost, progress=progress, step_length=step_length)
+    m = wk.walking_model()
+    gains = md.controller_gains(m, d)
+    pc = None
+    if poincare_check:
+        say("Poincaré analysis: restricted map (HZD) and full map under PD + feedforward")
+        pc = poincare(d, gains, controllers=("pdff",))
+    f = d.figures
+    rec = dict(
+        robot="mabel", speed_mps=float(f["speed"]), cost=cost, step_length_m=float(f["step_length"]),
+        period_s=float(f["period"]), cmt=float(f["cmt"]), torque_cost=float(f["torque_cost"]),
+        peak_torques_nm=[float(v) for v in f["peak_torques"]],
+        torque_capacity_nm=[float(v) for v in np.asarray(md.LIMITS)],
+        negative_work_fraction_spring=float(f["negative_work_fraction_spring"]),
+        negative_work_spring_j=float(f["neg_work_spring"]), negative_work_motor_j=float(f["neg_work_motor"]),
+        optimize_warm_s=float(info["warm_s"]), optimize_cold_s=float(info["cold_s"]),
+        iterations=int(info["iterations"]), converged=bool(info["success"]), solver_message=info["message"],
+        equality_residual=float(info["eq_residual"]), start=info["start"],
+        prescribed_step_length_m=step_length)
+    if pc is not None:
+        rec.update(max_abs_eigenvalue=pc["hzd"]["max_abs_eigenvalue"], poincare_eigenvalues=pc["hzd"]["poincare_eigenvalues"],
+                   poincare_eigenvalues_complex=pc["hzd"]["poincare_eigenvalues_complex"],
+                   max_abs_eigenvalue_pdff=pc["pdff"]["max_abs_eigenvalue"],
+                   poincare_eigenvalues_pdff=pc["pdff"]["poincare_eigenvalues"][:6], poincare=pc)
+    else:
+        rec.update(max_abs_eigenvalue=None, poincare_eigenvalues=None)
+    if save:
+        name = Path(save).stem
+        Path(save).write_text(json.dumps(record(name, d, gains, speed, cost, pc), indent=1, default=float))
+        rec["saved"] = str(save)
+    if out:
+        from bipedlab.robots.mabel.walking import plots as wp
+
+        rec["figures"] = wp.gait_figures(out, m, d)
+    return rec
+
+
+def summary_optimize(r: dict) -> str:
+    lines = [
+        f"MABEL gait ({r['cost']} cost): speed {r['speed_mps']:.3f} m/s, step {r['step_length_m']:.3f} m, "
+        f"period {r['period_s']:.3f} s, c_mt {r['cmt']:.4f}",
+        "peak torques (N m): " + ", ".join(f"{v:.1f}" for v in r["peak_torques_nm"]) + "  (capacity 30 / 55)",
+        f"negative work at the stance leg shape done by the spring: {100 * r['negative_work_fraction_spring']:.1f} %",
+    ]
+    if r.get("max_abs_eigenvalue") is not None:
+        lines.append(f"Poincaré: max |eig| {r['max_abs_eigenvalue']:.4f} (HZD, restricted map), "
+                     f"{r['max_abs_eigenvalue_pdff']:.4f} (PD + feedforward, full map)")
+    lines.append(f"solve: {r['iterations']} SLSQP iterations, warm {r['optimize_warm_s']:.1f} s, "
+                 f"cold {r['optimize_cold_s']:.1f} s (from {r['start']})")
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- walk
+
+def parse_push(text: str | None):
+    """'FORCE@STEP' -> (force N, step index); None -> (0, -1)."""
+    if not text:
+        return 0.0, -1
+    try:
+        f, s = text.split("@")
+        force, step = float(f), int(s)
+    except ValueError:
+        raise ValueError(f"--push expects FORCE@STEP (e.g. 78@10 or -71@30), got {text!r}") from None
+    if not np.isfinite(force) or step < 0:
+        raise ValueError(f"--push expects a finite force and a step >= 0, got {text!r}")
+    return force, step
+
+
+#: sensing options: 14-bit encoders with the filtered backward difference (the experiments'),
+#: the same encoders with the model-based velocity observer, or the exact state
+SENSING = ("encoders", "observer", "ideal")
+
+
+def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", lean=0.0, lean_steps=1) -> sw.Setup:
+    if sensing not in SENSING:
+        raise ValueError(f"sensing must be one of {', '.join(SENSING)}, got {sensing!r}")
+    f = lambda v: jnp.asarray(v, float)  # noqa: E731
+    return sw.Setup(vc=vc, gains=gains, eta=f(eta), push_force=f(push[0]), push_step=jnp.asarray(push[1]),
+                    period=f(period), quantised=f(0.0 if sensing == "ideal" else 1.0), lean=f(lean),
+                    lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0))
+
+
+def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
+             progress=None, lean_deg: float = 0.0, lean_steps: int = 20):
+    """Simulate; returns (final state, logs, gait record)."""
+    vc, gains, rec = load_gait(gait)
+    m = wk.walking_model()
+    setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
+    cb = None
+    if progress is not None:
+        last = [-1]
+
+        def cb(k, n):
+            if k // 10 != last[0]:
+                last[0] = k // 10
+                progress(f"step {k}/{n}")
+    s, log = sw.simulate(m, controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
+    return s, log, rec
+
+
+def metrics(s, log) -> dict:
+    touched = np.nonzero(log["touched"])[0]
+    n = int(s.step)
+    t_imp = (touched + 1) * sw.SAMPLE
+    durations = np.diff(np.concatenate([[0.0], t_imp]))
+    lengths = np.diff(np.concatenate([[0.0], log["distance"][touched]]))
+    dist, t = float(s.distance), float(t_imp[-1]) if n else float(s.t)
+    speed_steps = (lengths / durations).tolist()
+    y = log["y"][: touched[-1] + 1] if n else log["y"]
+    mass = robot_mass()
+    work = float(log["work"][touched[-1]]) if n else 0.0
+    cmt = work / (mass * 9.81 * dist) if dist > 0 else None
+    return dict(fell=bool(s.fell), steps_completed=n, distance_m=dist, duration_s=t,
+                speed_mps=dist / t if t > 0 and n else 0.0, cmt=cmt,
+                tracking_rms_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.sqrt(np.mean(y**2, 0))))},
+                tracking_peak_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.max(np.abs(y), 0)))},
+                peak_torques_nm=[float(v) for v in np.max(np.abs(log["u"]), 0)],
+                speed_per_step=speed_steps, step_lengths_m=lengths.tolist(), step_durations_s=durations.tolist())
+
+
+def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
+         out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20) -> dict:
+    """Closed-loop walk; ``lean_deg`` leans the torso forward (swing leg's absolute angle kept)
+    in ``lean_steps`` equal increments, one per step, as the experimenters did to walk faster."""
+    force, step = parse_push(push)
+    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps)
+    r = dict(robot="mabel", gait=gait, controller=controller, sensing=sensing, impact_scale=eta,
+             torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
+             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log))
+    pc = rec.get("poincare") or {}
+    key = "hzd" if controller != "pdff" else "pdff"
+    r["max_abs_eigenvalue"] = pc.get(key, {}).get("max_abs_eigenvalue")
+    r["designed_speed_mps"] = float(rec["design"]["speed"])
+    if out:
+        from bipedlab.robots.mabel.walking import plots as wp
+
+        r["figures"] = wp.walk_figures(out, log, r)
+    return r
+
+
+def summary_walk(r: dict) -> str:
+    lines = [f"MABEL walking, gait {r['gait']}, controller {r['controller']} ({r['sensing']}, 1 kHz): "
+             f"{'FELL after' if r['fell'] else 'no fall,'} {r['steps_completed']} steps",
+             f"speed {r['speed_mps']:.3f} m/s (designed {r['designed_speed_mps']:.3f}), c_mt "
+             + (f"{r['cmt']:.4f}" if r["cmt"] is not None else "n/a"),
+             "tracking rms (deg): " + ", ".join(f"{k} {v:.3f}" for k, v in r["tracking_rms_deg"].items())]
+    if r.get("max_abs_eigenvalue") is not None:
+        lines.append(f"Poincaré max |eig| of the gait under this controller: {r['max_abs_eigenvalue']:.4f}")
+    return "\n".join(lines)

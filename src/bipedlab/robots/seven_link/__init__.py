@@ -1,0 +1,1 @@
+"""bipedlab.robots.seven_link.robot."""

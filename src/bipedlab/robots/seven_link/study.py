@@ -1,0 +1,446 @@
+"""Studies of the seven-link biped (Braun, Mitchell, Goldfarb, IEEE/ASME T-Mech 2012).
+
+* :func:`walk`: nonkinematic walking on flat ground (Section VI): eq. 4 generalised forces,
+  S1-S4 switching, the eq. 7 torque map, on the active-set contact simulation of
+  :mod:`bipedlab.robots.seven_link.contact`; gait figures (speed, step length, step frequency),
+  the mechanical cost of transport, constraint drift, impact energy check, Fig. 8/9 figures.
+* :func:`free_swing`: Fig. 6, hip and knee released from rest, with Table I's gearing
+  (21:1 hip, 12:1 knee) and the highly geared alternative (105:1, 60:1).
+* :func:`low_gain_pd`: Fig. 7, the low-gain PD experiment with the stated gains and
+  references on a leg hanging from a fixed body.
+
+Mechanical cost of transport (the paper's ``c_mt = |mechanical energy| / (weight x distance)``,
+after Gabrielli and von Karman): the mechanical energy is the actuators' absolute work
+``sum_i int |u_i phi_dot_i| dt`` over whole steps, after the first ``TRANSIENT_STEPS``
+steps, divided by the robot's weight and the hip's distance travelled over the same steps.
+The positive-work variant of Collins et al. (``int max(u_i phi_dot_i, 0) dt``) is reported
+beside it as ``cmt_positive``.
+"""
+from __future__ import annotations
+
+import functools
+from pathlib import Path
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+
+from bipedlab.robots.seven_link import controller as ctl
+from bipedlab.robots.seven_link import robot as sl
+from bipedlab.robots.seven_link import contact as sc
+
+#: Steps ignored by the gait averages (the start from a guessed posture).
+TRANSIENT_STEPS = 6
+#: Mechanical cost of transport quoted in the paper and the reference values.
+CMT_COMPARISON = {"Cornell biped": 0.055, "MABEL": 0.14, "seven-link (paper, hardware)": 0.31, "RABBIT": 0.38,
+                  "ASIMO": 1.6}
+PAPER_GAIT = {"speed_mps": 0.5, "step_length_m": 0.5, "step_frequency_hz": 1.0, "cmt": 0.31}
+#: The initial posture: body angle, joint angles (deg) and hip velocity (m/s); leg 1 stands
+#: flat-footed with the knee on its stop, leg 2 swings behind.
+START_BODY_DEG = 87.5
+START_PHI_DEG = (7.5, 0.0, 0.0, -7.5, -30.0, 10.0)
+START_SPEED = 0.5
+
+
+# ----------------------------------------------------------------------------- walking
+def initial_condition(r: sl.SevenLink | None = None, speed: float = START_SPEED):
+    """(x0 (18,), active0 (6,)): leg 1 flat on the ground at x = 0 with its knee locked, leg 2
+    in swing; the hip velocity guess ``speed`` is projected onto the constraints by the
+    simulator."""
+    r = r or sl.model()
+    q = sl.configuration(np.deg2rad(START_BODY_DEG), np.deg2rad(START_PHI_DEG), anchor="heel_1", r=r)
+    qd = jnp.zeros(9).at[0].set(speed)
+    active = jnp.array([True, True, False, False, True, False])
+    x = jnp.concatenate([q, qd])
+    # the posture's foot is tilted 5 deg: lay it flat (M-weighted Newton projection onto
+    # the stance constraints, to convergence) and make the velocity consistent
+    anchors = jnp.stack([sl.point_position(r, q, n) for n in sl.CONTACTS])[:, 0]
+    for _ in range(5):
+        x, _ = sc.project(r, x, active, anchors)
+    return x, active
+
+
+#: The controller variant of each parameter set: "paper" is Table II with eq. 7 as printed
+#: (every touching element in A); "tuned" adds the unilateral check of
+#: :func:`bipedlab.robots.seven_link.controller.policy` (no element asked to pull), which removes the
+#: contact chatter; Table II with the check walks too fast and falls within a few steps.
+UNILATERAL_CHECK = {"paper": False, "tuned": True}
+
+
+def gains(name: str) -> ctl.Gains:
+    """"paper" (Table II) or "tuned" (:data:`bipedlab.robots.seven_link.controller.TABLE_TUNED`)."""
+    if name == "paper":
+        return ctl.paper_gains()
+    if name == "tuned":
+        return ctl.tuned_gains()
+    raise ValueError(f"seven-link: params must be 'paper' or 'tuned', got {name!r}")
+
+
+def settings_for(steps: int) -> sc.Settings:
+    return sc.Settings(max_time=float(max(10.0, 2.5 * steps + 5.0)), steps=int(steps))
+
+
+@functools.lru_cache(maxsize=8)
+def _simulator(settings: sc.Settings):
+    r = sl.model()
+
+    def run(x0, active0, p, c0):
+        return sc.simulate(r, ctl.policy, p, c0, x0, active0, settings, ctl.log_vector)
+
+    return jax.jit(run)
+
+
+def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
+             speed: float = START_SPEED):
+    """Simulate the closed loop; returns the raw :class:`~bipedlab.robots.seven_link.contact.SimResult`."""
+    r = sl.model()
+    if x0 is None:
+        x0, active0 = initial_condition(r, speed)
+    p = ctl.make_params(r, gains(params), sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
+    c0 = ctl.initial_state(x0)
+    return _simulator(settings_for(steps))(x0, active0, p, c0)
+
+
+def gait_metrics(res, weight: float, transient: int = TRANSIENT_STEPS) -> dict:
+    """Speed, step length, step frequency and c_mt over the touchdowns after ``transient``."""
+    n = int(res.n_touchdowns)
+    t = np.asarray(res.td_time[:n])
+    hx = np.asarray(res.td_hip_x[:n])
+    wk = np.asarray(res.td_work[:n])
+    a = min(transient, max(n - 3, 0))
+    out = dict(speed_mps=None, step_length_m=None, step_frequency_hz=None, cmt=None, cmt_positive=None,
+               gait_window_steps=max(n - 1 - a, 0))
+    if n - 1 - a >= 2:
+        dist = hx[-1] - hx[a]
+        dur = t[-1] - t[a]
+        out.update(speed_mps=dist / dur, step_length_m=dist / (n - 1 - a), step_frequency_hz=(n - 1 - a) / dur)
+        if dist > 0:
+            out.update(cmt=(wk[-1, 0] - wk[a, 0]) / (weight * dist), cmt_positive=(wk[-1, 1] - wk[a, 1]) / (weight * dist))
+    return out
+
+
+def _finite(v):
+    if v is None:
+        return None
+    v = float(v)
+    return v if np.isfinite(v) else None
+
+
+def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progress=None, sensing: bool = False) -> dict:
+    """The walking study: a result record (JSON-ready) and, with ``out``, figures and an NPZ.
+    sensing: the controller sees the Section V-A estimates (quantised encoders, body angle
+    from the contact kinematics or the integrated gyro) instead of the exact state."""
+    progress = progress or (lambda m: None)
+    r = sl.model()
+    progress(f"seven-link: simulating {steps} steps with the {params} parameters (first run compiles, ~30 s)")
+    res = run_walk(steps, params, sensing=sensing)
+    status = int(res.status)
+    n = int(res.n_touchdowns)
+    weight = float(sl.total_mass(r)) * sl.GRAVITY
+    nl = int(res.n_log_used)
+    lt, lx, lu = np.asarray(res.log_t[:nl]), np.asarray(res.log_x[:nl]), np.asarray(res.log_u[:nl])
+    rec = dict(robot="seven-link", params=params, sensing="section V-A" if sensing else "ideal", steps_requested=steps, steps_completed=n,
+               fell=bool(status != sc.OK or n < steps), status=sc.STATUS_NAMES.get(status, str(status)),
+               sim_time_s=float(res.t_end))
+    rec.update({k: _finite(v) if k != "gait_window_steps" else v for k, v in gait_metrics(res, weight).items()})
+    rec["cmt_definition"] = ("sum_i int |u_i dphi_i/dt| dt / (m g distance), over whole steps after the first "
+                             f"{TRANSIENT_STEPS}; cmt_positive counts positive work only")
+    rec["cmt_comparison"] = CMT_COMPARISON
+    rec["paper"] = PAPER_GAIT
+    rec["max_constraint_drift"] = dict(
+        position_before_projection_m=float(res.drift_before[0]), velocity_before_projection_mps=float(res.drift_before[1]),
+        position_after_projection_m=float(res.drift_after[0]), velocity_after_projection_mps=float(res.drift_after[1]))
+    rec["max_impact_energy_change_j"] = _finite(res.impact_energy_gain)
+    rec["max_friction_ratio"] = float(res.friction_ratio)
+    rec["events"] = int(res.n_events)
+    rec["releases"] = int(res.n_releases)
+    rec["events_per_step"] = int(res.n_events) / max(n, 1)
+    rec["unilateral_check"] = UNILATERAL_CHECK[params]
+    tail = lt >= (lt[-1] - 5.0) if nl else np.zeros(0, bool)
+    rec["peak_torques_nm"] = dict(zip(sl.JOINT_NAMES, np.abs(lu).max(axis=0).round(3).tolist())) if nl else {}
+    rec["body_angle_deg_mean"] = float(np.rad2deg(lx[tail, 2]).mean()) if nl else None
+    rec["gains"] = {k: np.asarray(v).round(6).tolist() for k, v in
+                    dict(k=gains(params).k, b=gains(params).b, ref_deg=np.rad2deg(np.asarray(gains(params).ref))).items()}
+    if out:
+        rec["files"] = _walk_files(res, out, params)
+    return rec
+
+
+def _walk_files(res, out, params) -> list:
+    from bipedlab.robots.seven_link import plots as vp
+
+    d = Path(out)
+    d.mkdir(parents=True, exist_ok=True)
+    nl = int(res.n_log_used)
+    lt, lx, lu = np.asarray(res.log_t[:nl]), np.asarray(res.log_x[:nl]), np.asarray(res.log_u[:nl])
+    states = np.asarray(res.log_ctrl[:nl, :2])
+    files = [vp.angles_and_torques(lt, lx, lu, states, d), vp.stick_figure(lt, lx, d)]
+    npz = d / f"walk_seven_link_{params}.npz"
+    np.savez(npz, t=lt, x=lx, u=lu, states=states, active=np.asarray(res.log_active[:nl]),
+             forces=np.asarray(res.log_force[:nl]), td_time=np.asarray(res.td_time), td_hip_x=np.asarray(res.td_hip_x))
+    files.append(str(npz))
+    return files
+
+
+def summary_walk(rec: dict) -> str:
+    f = lambda v, fmt: "n/a" if v is None else format(v, fmt)  # noqa: E731
+    lines = [f"seven-link walk ({rec['params']} parameters): {rec['steps_completed']}/{rec['steps_requested']} steps, "
+             f"{'FELL' if rec['fell'] else 'no fall'} (status {rec['status']}, {rec['sim_time_s']:.1f} s simulated)",
+             f"  speed {f(rec['speed_mps'], '.3f')} m/s (paper ~0.5), step {f(rec['step_length_m'], '.3f')} m (~0.5), "
+             f"frequency {f(rec['step_frequency_hz'], '.3f')} Hz (~1)",
+             f"  c_mt {f(rec['cmt'], '.3f')} (paper robot 0.31; Cornell 0.055, MABEL 0.14, RABBIT 0.38, ASIMO 1.6), "
+             f"positive-work c_mt {f(rec['cmt_positive'], '.3f')}",
+             "  max constraint drift before/after projection: "
+             f"{rec['max_constraint_drift']['position_before_projection_m']:.1e} / "
+             f"{rec['max_constraint_drift']['position_after_projection_m']:.1e} m",
+             f"  contact/knee-stop events {rec['events_per_step']:.1f} per step, {rec['releases']} releases "
+             f"(unilateral check {'on' if rec['unilateral_check'] else 'off'})"]
+    if rec.get("files"):
+        lines.append("  wrote " + ", ".join(rec["files"]))
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- Fig. 6
+def _reduced_acc(r: sl.SevenLink, q0, e, s, sd):
+    """Acceleration of the one-degree-of-freedom motion q = q0 + e s (the other coordinates
+    held): (e^T (damping - bias)) / (e^T M e)."""
+    q = q0 + e * s
+    qd = e * sd
+    m = e @ sl.mass_matrix(r, q) @ e
+    return e @ (sl.damping_force(r, qd) - sl.bias(r, q, qd)) / m
+
+
+@functools.partial(jax.jit, static_argnames=("n", "dt"))
+def _swing(r: sl.SevenLink, q0, e, s0, n: int, dt: float):
+    """RK4 (step dt, n steps) of :func:`_reduced_acc` from rest at s0; returns s (n,)."""
+    acc = lambda s, v: _reduced_acc(r, q0, e, s, v)  # noqa: E731
+
+    def step(c, _):
+        s, v = c
+        k1 = (v, acc(s, v))
+        k2 = (v + 0.5 * dt * k1[1], acc(s + 0.5 * dt * k1[0], v + 0.5 * dt * k1[1]))
+        k3 = (v + 0.5 * dt * k2[1], acc(s + 0.5 * dt * k2[0], v + 0.5 * dt * k2[1]))
+        k4 = (v + dt * k3[1], acc(s + dt * k3[0], v + dt * k3[1]))
+        s1 = s + dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
+        v1 = v + dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
+        return (s1, v1), s1
+
+    return jax.lax.scan(step, (s0, jnp.zeros_like(s0)), None, length=n)[1]
+
+
+def _rk4_1dof(r, q0, e, s0, duration, dt=1e-3):
+    n = int(round(duration / dt))
+    s = _swing(r, jnp.asarray(q0, jnp.float64), jnp.asarray(e, jnp.float64), jnp.asarray(s0, jnp.float64), n, dt)
+    return np.arange(n + 1) * dt, np.concatenate([[s0], np.asarray(s)])
+
+
+def swing_metrics(t, y) -> dict:
+    """Period (mean time between successive same-direction zero crossings of y about its
+    final value), logarithmic decrement of successive peaks, and settling time (|y| within 5 %
+    of the release amplitude). Overdamped responses report no period."""
+    y = np.asarray(y) - y[-1]
+    cross = np.flatnonzero(np.sign(y[1:]) != np.sign(y[:-1]))
+    tc = t[cross]
+    period = float(np.mean(np.diff(tc[::2]))) if len(tc) >= 3 else None
+    peaks = []
+    for a, b in zip(cross[:-1], cross[1:]):
+        peaks.append(np.max(np.abs(y[a:b + 1])))
+    dec = float(np.mean(np.log(np.asarray(peaks[:-1]) / np.asarray(peaks[1:])) * 2)) if len(peaks) >= 3 else None
+    big = np.flatnonzero(np.abs(y) > 0.05 * abs(y[0]))
+    settle = float(t[big[-1]]) if len(big) else 0.0
+    return dict(period_s=period, log_decrement_per_cycle=dec, half_cycles=int(len(cross)), settling_time_s=settle,
+                amplitude_after_1s_deg=float(np.rad2deg(abs(y[np.searchsorted(t, 1.0)]))))
+
+
+def free_swing(out: str | None = None, release_deg: float = 45.0, duration: float = 6.0, progress=None) -> dict:
+    """Fig. 6: the hip (whole leg, knee on its stop and ankle locked, body fixed upright)
+    and the knee (shank and foot, thigh held horizontal, ankle locked) released from rest
+    ``release_deg`` away from hanging, unactuated, with the Table I gearing and with 105:1
+    hip / 60:1 knee gearing (reflected inertia n^2 J_m and viscous damping scaled by
+    (n / n_Table I)^2, see :func:`bipedlab.robots.seven_link.robot.model`)."""
+    progress = progress or (lambda m: None)
+    a = np.deg2rad(release_deg)
+    # hanging posture (absolute angles, body upright): the hip case swings theta_1..theta_3
+    # together about a fixed hip; the knee case swings theta_2, theta_3 with the thigh
+    # held horizontal and forward (theta_1 = pi, the shank hanging at phi_2 = -90 deg)
+    hang = np.array([0.0, 1.0, np.pi / 2, np.pi / 2, np.pi / 2, 0.0, np.pi / 2, np.pi / 2, 0.0])
+    knee_pose = hang.copy()
+    knee_pose[3] = np.pi
+    cases = {"hip": (hang, (0, 0, 0, 1, 1, 1, 0, 0, 0), 21.0, 105.0),
+             "knee": (knee_pose, (0, 0, 0, 0, 1, 1, 0, 0, 0), 12.0, 60.0)}
+    rec = dict(robot="seven-link", experiment="free-swing", release_deg=release_deg, duration_s=duration, joints={})
+    curves = {}
+    for joint, (pose, e, n_lo, n_hi) in cases.items():
+        curves[joint] = {}
+        rec["joints"][joint] = {}
+        for label, gear in ((f"{int(n_lo)}:1 (Table I)", "table"), (f"{int(n_hi)}:1", "high")):
+            ratios = (21.0, 12.0, 21.0) if gear == "table" else ((105.0, 12.0, 21.0) if joint == "hip" else (21.0, 60.0, 21.0))
+            r = sl.model(gear_ratios=ratios)
+            q0 = jnp.asarray(pose)
+            progress(f"seven-link free swing: {joint} {label}")
+            t, s = _rk4_1dof(r, q0, e, a, duration)
+            m = swing_metrics(t, s)
+            m.update(gear_ratio=ratios[0 if joint == "hip" else 1],
+                     reflected_inertia_kgm2=float(r.coupled.rotor_inertia[0 if joint == "hip" else 1]),
+                     damping_nms=float(r.damping[0 if joint == "hip" else 1]))
+            rec["joints"][joint][label] = m
+            curves[joint][label] = (t, np.rad2deg(s))
+    if out:
+        from bipedlab.robots.seven_link import plots as vp
+
+        Path(out).mkdir(parents=True, exist_ok=True)
+        rec["files"] = [vp.free_swing(curves, out)]
+        npz = Path(out) / "free_swing.npz"
+        np.savez(npz, **{f"{j}_{k.split()[0].replace(':', '_')}": np.stack(v) for j, c in curves.items()
+                         for k, v in c.items()})
+        rec["files"].append(str(npz))
+    return rec
+
+
+# ----------------------------------------------------------------------------- Fig. 7
+PD_K = (2.0, 1.5, 1.0)
+PD_B = (0.2, 0.2, 0.1)
+
+
+def pd_reference(t):
+    """phi_d(t) of Fig. 7 (rad): hip, knee, ankle."""
+    t = jnp.asarray(t)
+    return jnp.stack([jnp.pi / 3 * jnp.sin(1.5 * jnp.pi * t) + jnp.pi / 20,
+                      jnp.pi / 6 * jnp.sin(3 * jnp.pi * t - jnp.pi / 2) - jnp.pi / 2,
+                      jnp.pi / 6 * jnp.sin(6 * jnp.pi * t) + jnp.pi / 6], axis=-1)
+
+
+PD_FREQ_HZ = (0.75, 1.5, 3.0)
+
+
+def _pd_sim(duration: float, dt: float = 5e-4):
+    """Leg 1 hanging from the fixed, upright body (x, y, theta and leg 2 held), three free
+    absolute angles theta_1..theta_3, u = -K (phi - phi_d) - B phi_dot on leg 1's joints."""
+    r = sl.model()
+    free = jnp.array([3, 4, 5])
+    q_fix = sl.configuration(np.pi / 2, np.deg2rad([9.0, -90.0, 30.0, 0.0, 0.0, 0.0]), r=r)
+    K, B = jnp.asarray(PD_K), jnp.asarray(PD_B)
+    E = jnp.asarray(sl.E)
+
+    def acc(t, z):
+        q = q_fix.at[free].set(z[:3])
+        qd = jnp.zeros(9).at[free].set(z[3:])
+        phi = sl.joint_angles(q)[:3]
+        phid = sl.joint_rates(qd)[:3]
+        u = -K * (phi - pd_reference(t)) - B * phid
+        f = E[:, :3] @ u + sl.damping_force(r, qd) - sl.bias(r, q, qd)
+        M = sl.mass_matrix(r, q)
+        return jnp.concatenate([z[3:], jnp.linalg.solve(M[free][:, free], f[free])]), u
+
+    def step(z, t):
+        k1, u = acc(t, z)
+        k2, _ = acc(t + dt / 2, z + dt / 2 * k1)
+        k3, _ = acc(t + dt / 2, z + dt / 2 * k2)
+        k4, _ = acc(t + dt, z + dt * k3)
+        z1 = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
+        return z1, (z1, u)
+
+    # start on the reference at t = 0 (at rest)
+    phi0 = np.asarray(pd_reference(0.0))
+    q0 = sl.configuration(np.pi / 2, np.concatenate([phi0, [0.0, 0.0, 0.0]]), r=r)
+    z0 = jnp.concatenate([q0[free], jnp.zeros(3)])
+    n = int(round(duration / dt))
+    ts = jnp.arange(n) * dt
+    _, (zs, us) = jax.jit(lambda z0: jax.lax.scan(step, z0, ts))(z0)
+    t = np.asarray(ts) + dt
+    th = np.asarray(zs[:, :3])
+    phi = np.stack([th[:, 0] - np.pi / 2, th[:, 1] - th[:, 0], th[:, 2] - th[:, 1] + np.pi / 2], axis=1)
+    return t, phi, np.asarray(pd_reference(t)), np.asarray(us)
+
+
+def _fit_harmonic(t, y, f):
+    """Amplitude and phase (rad) of y's component at frequency f (least squares with offset)."""
+    w = 2 * np.pi * f
+    X = np.stack([np.sin(w * t), np.cos(w * t), np.ones_like(t)], axis=1)
+    c, *_ = np.linalg.lstsq(X, y, rcond=None)
+    return float(np.hypot(c[0], c[1])), float(np.arctan2(c[1], c[0])), float(c[2])
+
+
+def low_gain_pd(out: str | None = None, duration: float = 8.0, progress=None) -> dict:
+    """Fig. 7: tracking of the low-gain PD experiment after the first ``duration / 2`` s:
+    RMS and peak error, and per joint the response's amplitude and phase at the reference's
+    frequency against the reference's."""
+    progress = progress or (lambda m: None)
+    progress("seven-link low-gain PD experiment")
+    t, phi, ref, u = _pd_sim(duration)
+    w = t >= duration / 2
+    rec = dict(robot="seven-link", experiment="low-gain-pd", duration_s=duration, gains=dict(K=PD_K, B=PD_B),
+               analysis_window_s=[duration / 2, duration], joints={})
+    for k, nm in enumerate(("hip", "knee", "ankle")):
+        a_r, p_r, o_r = _fit_harmonic(t[w], ref[w, k], PD_FREQ_HZ[k])
+        a_y, p_y, o_y = _fit_harmonic(t[w], phi[w, k], PD_FREQ_HZ[k])
+        err = phi[w, k] - ref[w, k]
+        rec["joints"][nm] = dict(
+            frequency_hz=PD_FREQ_HZ[k], reference_amplitude_deg=float(np.rad2deg(a_r)),
+            response_amplitude_deg=float(np.rad2deg(a_y)), amplitude_ratio=a_y / a_r,
+            phase_lag_deg=float(np.rad2deg((p_r - p_y + np.pi) % (2 * np.pi) - np.pi)),
+            reference_mean_deg=float(np.rad2deg(o_r)), response_mean_deg=float(np.rad2deg(o_y)),
+            rms_error_deg=float(np.rad2deg(np.sqrt(np.mean(err**2)))), max_error_deg=float(np.rad2deg(np.abs(err).max())),
+            peak_torque_nm=float(np.abs(u[w, k]).max()))
+    rec["knee_stop_reached"] = bool(np.max(phi[:, 1]) > 0.0)
+    if out:
+        from bipedlab.robots.seven_link import plots as vp
+
+        Path(out).mkdir(parents=True, exist_ok=True)
+        rec["files"] = [vp.pd_experiment(t, phi, ref, out)]
+        npz = Path(out) / "low_gain_pd.npz"
+        np.savez(npz, t=t, phi=phi, phi_d=ref, u=u)
+        rec["files"].append(str(npz))
+    return rec
+
+
+def summary_experiment(rec: dict) -> str:
+    lines = [f"seven-link experiment {rec['experiment']}"]
+    if rec["experiment"] == "free-swing":
+        for j, cases in rec["joints"].items():
+            for label, m in cases.items():
+                per = "overdamped" if m["period_s"] is None else f"period {m['period_s']:.3f} s"
+                dec = "" if m["log_decrement_per_cycle"] is None else f", log decrement {m['log_decrement_per_cycle']:.2f}/cycle"
+                lines.append(f"  {j} {label}: {per}{dec}, {m['half_cycles']} half-cycles, settles (5 %) in "
+                             f"{m['settling_time_s']:.2f} s")
+    else:
+        for j, m in rec["joints"].items():
+            lines.append(f"  {j}: amplitude {m['response_amplitude_deg']:.1f} of {m['reference_amplitude_deg']:.1f} deg "
+                         f"(ratio {m['amplitude_ratio']:.2f}), lag {m['phase_lag_deg']:.1f} deg, "
+                         f"RMS error {m['rms_error_deg']:.1f} deg")
+    if rec.get("files"):
+        lines.append("  wrote " + ", ".join(rec["files"]))
+    return "\n".join(lines)
+
+
+# ----------------------------------------------------------------------------- CLI
+_WALK_DEFAULTS = (("controller", None, "--controller"), ("gait", None, "--gait"), ("push", None, "--push"),
+                  ("impact_scale", 1.0, "--impact-scale"), ("lean", 0.0, "--lean"), ("lean_steps", 20, "--lean-steps"),
+                  ("sensing", "encoders", "--sensing"), ("perturb", 0.0, "--perturb"), ("seed", 0, "--seed"))
+
+
+def cli_record(parser, args, progress=None):
+    """``bipedlab walk seven-link`` and ``bipedlab experiment seven-link NAME``: validate the
+    options (``parser.error`` on bad input) and run; returns (record, summary function)."""
+    say = progress or (lambda msg: None)
+    if args.study == "walk":
+        for attr, default, flag in _WALK_DEFAULTS:
+            if getattr(args, attr) != default:
+                parser.error(f"seven-link: {flag} applies to five-link or mabel, not seven-link")
+        steps = args.steps if args.steps is not None else 30
+        params = args.params if args.params is not None else "tuned"
+        rec = walk(steps, params, out=args.out, progress=progress)
+        summary = summary_walk
+    elif args.study == "experiment":
+        if args.steps is not None:
+            say(f"seven-link {args.name}: --steps has no effect on this experiment")
+        if args.name == "free-swing":
+            rec = free_swing(out=args.out, progress=progress)
+        elif args.name == "low-gain-pd":
+            rec = low_gain_pd(out=args.out, progress=progress)
+        else:
+            parser.error(f"seven-link: experiment must be free-swing or low-gain-pd, got {args.name}")
+        summary = summary_experiment
+    else:
+        parser.error(f"seven-link: {args.study} is not available for seven-link")
+    return rec, summary

@@ -1,0 +1,98 @@
+"""Hybrid simulation with exact event location: flow until a guard crosses zero, then reset.
+
+Fixed-step RK4 runs until the armed guard ``g(z)`` changes sign from positive to negative;
+the crossing inside the last step is then located by secant iterations on the sub-step
+``tau``, using the RK4 step from the start of that step as a 4th-order accurate local
+solution, until ``|g(rk4(z_k, tau))|`` is below ``tol`` (1e-13 by default). The same RK4 call
+serves the stepping and the refinement, which keeps the compiled loop small. The event time is
+finally re-expressed through the implicit function theorem,
+``tau <- tau - g / stop_gradient(g')``, so forward-mode derivatives (``jax.jacfwd``) of the event
+state include the event-time sensitivity.
+
+Everything runs inside ``lax.while_loop`` (forward-mode differentiable) and returns a status
+(``OK``; ``FELL`` when the step does not end within ``max_time`` or ``fell(z)`` holds;
+``NONFINITE``) instead of raising.
+"""
+from __future__ import annotations
+
+from typing import Callable, NamedTuple
+
+import jax
+import jax.numpy as jnp
+
+from bipedlab.sim.integrators import rk4
+from bipedlab.sim.rollout import FELL, NONFINITE, OK
+
+
+class StepResult(NamedTuple):
+    """State at the event, its time, the integrals of ``integrand`` over the step (rectangle
+    rule at the RK4 steps), the number of loop iterations, the guard value at the event, and
+    the status code."""
+
+    z: jax.Array
+    t: jax.Array
+    integrals: jax.Array
+    steps: jax.Array
+    guard: jax.Array
+    status: jax.Array
+
+
+def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, max_time: float,
+                  integrand: Callable | None = None, fell: Callable | None = None,
+                  tol: float = 1e-13, max_refine: int = 30) -> StepResult:
+    """Integrate zdot = f(z) from z0 until guard(z) crosses zero downwards while armed(z).
+
+    integrand(z) -> (k,) is accumulated over time; fell(z) -> bool ends the step as FELL."""
+    integrand = integrand or (lambda z: jnp.zeros(0))
+    fell = fell or (lambda z: jnp.asarray(False))
+    nint = jax.eval_shape(integrand, z0).shape
+    max_steps = int(max_time / h) + 1
+    step = lambda z, dt: rk4(lambda x, _: f(x), z, None, dt)  # noqa: E731
+    z0 = jnp.asarray(z0)
+    zero = jnp.zeros((), z0.dtype)
+
+    # carry: k, z (start of the current step), guard at z, t, acc,
+    #        mode (0 stepping, 1 refining, 2 done), secant bracket (ta, ga, tb, gb), status
+    def cond(c):
+        k, z, gz, t, acc, mode, ta, ga, tb, gb, status = c
+        return (mode < 2) & (k < max_steps + max_refine)
+
+    def body(c):
+        k, z, gz, t, acc, mode, ta, ga, tb, gb, status = c
+        refining = mode == 1
+        denom = jnp.where(gb != ga, gb - ga, 1.0)
+        tau = jnp.where(refining, jnp.clip(tb - gb * (tb - ta) / denom, 0.0, h), h)
+        zn = step(z, tau)
+        g_new = guard(zn)
+        bad = ~jnp.all(jnp.isfinite(zn)) | (fell(zn) & ~refining)
+        # stepping: detect a crossing in [z, zn]
+        hit = ~refining & armed(zn) & (g_new < 0) & (gz >= 0)
+        acc = acc + jnp.where(refining | hit, 0.0, h) * integrand(z)  # the crossing step: below
+        # refining: keep the secant pair (previous iterate, new iterate)
+        converged = refining & (jnp.abs(g_new) <= tol)
+        new_mode = jnp.where(bad, 2, jnp.where(hit, 1, jnp.where(converged, 2, mode)))
+        advance = ~refining & ~hit & ~bad
+        z_next = jnp.where(advance | bad, zn, z)
+        gz_next = jnp.where(advance | bad, g_new, gz)
+        t_next = t + jnp.where(advance | bad, h, 0.0)
+        ta_n = jnp.where(hit, 0.0, jnp.where(refining, tb, ta))
+        ga_n = jnp.where(hit, gz, jnp.where(refining, gb, ga))
+        tb_n = jnp.where(hit, h, jnp.where(refining, tau, tb))
+        gb_n = jnp.where(hit, g_new, jnp.where(refining, g_new, gb))
+        status = jnp.where(bad, jnp.where(jnp.all(jnp.isfinite(zn)), FELL, NONFINITE), status)
+        return k + 1, z_next, gz_next, t_next, acc, new_mode, ta_n, ga_n, tb_n, gb_n, status
+
+    init = (jnp.asarray(0), z0, guard(z0), zero, jnp.zeros(nint), jnp.asarray(0), zero, zero, zero, zero,
+            jnp.asarray(OK))
+    k, z, _, t, acc, mode, ta, ga, tb, gb, status = jax.lax.while_loop(cond, body, init)
+    found = (mode == 2) & (status == OK)
+    status = jnp.where(found, OK, jnp.where(status == OK, FELL, status))
+    # implicit-function form of the event time: exact value, exact forward-mode derivative
+    tau = jax.lax.stop_gradient(tb)
+    ze = step(z, tau)
+    slope = jax.lax.stop_gradient(jax.jvp(guard, (ze,), (f(ze),))[1])
+    tau = tau - guard(ze) / jnp.where(found, slope, 1.0)
+    ze = jnp.where(found, step(z, tau), z)
+    t = t + jnp.where(found, tau, 0.0)
+    acc = acc + jnp.where(found, tau, 0.0) * integrand(z)  # the located part of the last step
+    return StepResult(ze, t, acc, k, guard(ze), status)

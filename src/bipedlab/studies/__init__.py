@@ -1,1 +1,0 @@
-"""One module per reproduced experiment: inputs -> a result record (and figures)."""

@@ -1,0 +1,94 @@
+"""`bipedlab walk mabel`: the JSON record of a short closed-loop walk on the shipped nominal gait,
+and one-line usage errors (status 2) for a malformed push and an unreadable gait file. main() is
+called in-process (no interpreter start-up), with JAX's compilation cache left untouched."""
+from __future__ import annotations
+
+import contextlib
+import io
+import json
+
+import pytest
+
+from bipedlab import cli
+from helpers import expect_usage_error
+from bipedlab.robots.mabel.walking import study as wm
+
+
+@pytest.fixture(scope="module")
+def walk_record():
+    out = io.StringIO()
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(cli, "_enable_compile_cache", lambda: None)
+        with contextlib.redirect_stdout(out):
+            rc = cli.main(["walk", "mabel", "--steps", "3", "--json"])
+    assert rc == 0
+    lines = out.getvalue().strip().splitlines()
+    assert len(lines) == 1, out.getvalue()  # --json: one object and nothing else on stdout
+    return json.loads(lines[0])
+
+
+def test_walk_json_record_has_the_documented_keys(walk_record):
+    r = walk_record
+    for k in ("fell", "steps_completed", "speed_mps", "cmt", "tracking_rms_deg", "max_abs_eigenvalue",
+              "speed_per_step", "designed_speed_mps"):
+        assert k in r, k
+    assert r["robot"] == "mabel" and r["gait"] == "nominal" and r["controller"] == "pdff"
+    assert set(r["tracking_rms_deg"]) == {"mLS_st", "LA_sw", "mLS_sw", "Tor"}
+    assert isinstance(r["speed_per_step"], list) and len(r["speed_per_step"]) == 3
+    assert r["max_abs_eigenvalue"] is None or 0.0 <= r["max_abs_eigenvalue"] < 1.0
+
+
+def test_walk_on_the_nominal_gait_keeps_its_designed_speed(walk_record):
+    """Three steps under PD + feedforward at 1 kHz with encoders: no fall, and the walking speed
+    (overall and per step) within 5 % of the design's 0.8 m/s."""
+    r = walk_record
+    rec = wm.load_gait("nominal")[2]
+    assert r["fell"] is False and r["steps_completed"] == 3
+    v = rec["design"]["speed"]
+    assert r["designed_speed_mps"] == pytest.approx(v, rel=1e-12)
+    assert r["speed_mps"] == pytest.approx(v, rel=0.05)
+    assert r["speed_per_step"] == pytest.approx([v] * 3, rel=0.05)
+    # the steps are the designed ones: length and duration
+    assert r["step_lengths_m"] == pytest.approx([rec["design"]["step_length"]] * 3, rel=0.05)
+    assert r["step_durations_s"] == pytest.approx([rec["design"]["period"]] * 3, rel=0.05)
+    # tracking stays small (a few degrees at the motor leg shape, well under a degree elsewhere)
+    assert all(0.0 <= x < 5.0 for x in r["tracking_rms_deg"].values())
+    assert r["tracking_rms_deg"]["LA_sw"] < 1.0 and r["tracking_rms_deg"]["Tor"] < 1.0
+    # positive motor work per weight and distance, the order of the designed c_mt
+    assert r["cmt"] > 0 and r["cmt"] == pytest.approx(rec["design"]["cmt"], rel=0.5)
+    assert all(t <= c for t, c in zip(r["peak_torques_nm"], (30.0, 55.0, 30.0, 55.0)))
+
+
+@pytest.fixture
+def no_walk(monkeypatch):
+    """Bad input must be refused before any simulation, and JAX's configuration kept."""
+    def reached(*args, **kwargs):
+        raise AssertionError("the walk started despite bad input")
+
+    monkeypatch.setattr(cli, "_enable_compile_cache", lambda: None)
+    monkeypatch.setattr(wm, "walk", reached)
+
+
+@pytest.mark.parametrize("push", ["78", "abc@3", "78@-1", "nan@2", "78@1.5"])
+def test_bad_push_is_one_error_line_and_status_2(push, capsys, no_walk):
+    line = expect_usage_error(["walk", "mabel", "--steps", "3", "--push", push, "--json"], capsys)
+    assert "--push" in line
+
+
+def test_unknown_gait_file_is_one_error_line_and_status_2(tmp_path, capsys, no_walk):
+    path = tmp_path / "no_such_gait.json"
+    expect_usage_error(["walk", "mabel", "--gait", str(path), "--steps", "3", "--json"], capsys, needle=str(path))
+
+
+def test_gait_file_of_another_format_is_refused(tmp_path, capsys, no_walk):
+    path = tmp_path / "other.json"
+    path.write_text(json.dumps({"format": "something-else/2"}))
+    expect_usage_error(["walk", "mabel", "--gait", str(path), "--json"], capsys, needle=str(path))
+
+
+def test_parse_push():
+    assert wm.parse_push(None) == (0.0, -1)
+    assert wm.parse_push("78@10") == (78.0, 10)
+    assert wm.parse_push("-71@30") == (-71.0, 30)
+    with pytest.raises(ValueError, match="FORCE@STEP"):
+        wm.parse_push("78")
