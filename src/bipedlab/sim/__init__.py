@@ -1,16 +1,10 @@
-"""Integrators, compiled and batched rollouts, and simulation scenarios."""
-from bipedlab.sim.integrators import heun, rk4, semi_implicit_euler
-from bipedlab.sim.rollout import (
-    FELL,
-    NONFINITE,
-    OK,
-    STATUS_NAMES,
-    RolloutResult,
-    RolloutSpec,
-    batched_rollout,
-    rollout,
-    use_cpu_cores,
-)
+"""Integrators, the event locator, the sampled-data closed loop, sensors, rollouts."""
+from bipedlab.sim import events, integrators, loop
+from bipedlab.sim.integrators import heun, rk4, rk4_with_stage, semi_implicit_euler
+from bipedlab.sim.loop import LoopState, SampledLoop
+from bipedlab.sim.rollout import (FELL, NONFINITE, OK, STATUS_NAMES, RolloutResult, RolloutSpec, batched_rollout,
+                                  rollout, use_cpu_cores)
 
-__all__ = ["heun", "rk4", "semi_implicit_euler", "FELL", "NONFINITE", "OK", "STATUS_NAMES",
-           "RolloutResult", "RolloutSpec", "batched_rollout", "rollout", "use_cpu_cores"]
+__all__ = ["events", "integrators", "loop", "heun", "rk4", "rk4_with_stage", "semi_implicit_euler", "LoopState",
+           "SampledLoop", "FELL", "NONFINITE", "OK", "STATUS_NAMES", "RolloutResult", "RolloutSpec", "batched_rollout",
+           "rollout", "use_cpu_cores"]

@@ -1,4 +1,21 @@
-"""Hybrid simulation with exact event location: flow until a guard crosses zero, then reset.
+"""The one event locator: where a guard crosses zero inside an integration step.
+
+Methods, all inside compiled code (no Python control flow on values):
+
+* :func:`flow_to_event` - flow a smooth ODE until an armed guard crosses zero downwards; the
+  crossing is located by secant iterations to a tolerance and re-expressed through the
+  implicit function theorem so forward-mode derivatives include the event-time sensitivity;
+* :func:`regula_falsi` - a fixed number of false-position iterations on a bracketed crossing
+  inside one step (sampled-data loops);
+* :func:`newton` - Newton's method with the derivative by forward mode (a smooth guard along a
+  smooth step, e.g. the zero dynamics integrated in the phase variable);
+* :func:`bisection` - a fixed number of halvings of a bracket on a predicate (non-smooth guards,
+  several contacts at once);
+* :func:`first_on_grid` - the first grid point where a predicate holds, to seed a bracket;
+* :func:`linear_crossing` - the fraction of a step at which a linearly interpolated guard
+  vanishes.
+
+``flow_to_event`` in detail:
 
 Fixed-step RK4 runs until the armed guard ``g(z)`` changes sign from positive to negative;
 the crossing inside the last step is then located by secant iterations on the sub-step
@@ -96,3 +113,50 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
     t = t + jnp.where(found, tau, 0.0)
     acc = acc + jnp.where(found, tau, 0.0) * integrand(z)  # the located part of the last step
     return StepResult(ze, t, acc, k, guard(ze), status)
+
+
+def regula_falsi(g: Callable, a, b, ga, gb, iterations: int):
+    """False position on the bracket [a, b] with g(a) = ga > 0 >= gb = g(b): ``iterations``
+    updates keeping the sign change, then the final false-position point. Returns x."""
+    def body(c, _):
+        a, b, ga, gb = c
+        x = a - ga * (b - a) / (gb - ga)
+        gx = g(x)
+        left = gx > 0.0
+        return (jnp.where(left, x, a), jnp.where(left, b, x), jnp.where(left, gx, ga), jnp.where(left, gb, gx)), None
+
+    a, b, ga, gb = jax.lax.scan(body, (a, b, ga, gb), None, length=iterations)[0]
+    return a - ga * (b - a) / (gb - ga)
+
+
+def newton(g: Callable, x0, iterations: int):
+    """``iterations`` Newton steps on g(x) = 0 from x0, g' by forward mode. Returns x."""
+    def body(x, _):
+        val, slope = jax.jvp(g, (x,), (jnp.ones_like(x),))
+        return x - val / slope, None
+
+    return jax.lax.scan(body, x0, None, length=iterations)[0]
+
+
+def bisection(crossed: Callable, lo, hi, iterations: int):
+    """``iterations`` halvings of [lo, hi], where ``crossed(hi)`` holds and ``crossed(lo)``
+    does not. Returns the final (lo, hi)."""
+    def body(_, c):
+        lo, hi = c
+        mid = 0.5 * (lo + hi)
+        m = crossed(mid)
+        return jnp.where(m, lo, mid), jnp.where(m, mid, hi)
+
+    return jax.lax.fori_loop(0, iterations, body, (lo, hi))
+
+
+def first_on_grid(values_hold, ts):
+    """Index of the first grid point where ``values_hold`` (bool array over ``ts``) is true,
+    the bracket (ts[k - 1], ts[k]) around it, and whether there is one."""
+    k = jnp.argmax(values_hold)
+    return k, ts[jnp.maximum(k - 1, 0)], ts[k], jnp.any(values_hold)
+
+
+def linear_crossing(g0, g1, target=0.0):
+    """Fraction in [0, 1] of a step at which g, linear from g0 to g1, reaches ``target``."""
+    return jnp.clip((target - g0) / jnp.where(g1 - g0 == 0, 1.0, g1 - g0), 0.0, 1.0)

@@ -15,10 +15,9 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.mechanics._fusion import stage_barriers
-from bipedlab.sim import integrators
+from bipedlab.sim import integrators, loop
+from bipedlab.sim.loop import FELL, NONFINITE, OK, STATUS_NAMES, SampledLoop  # noqa: F401
 
-OK, FELL, NONFINITE = 0, 1, 2
-STATUS_NAMES = {OK: "ok", FELL: "fell", NONFINITE: "non-finite"}
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,31 +53,31 @@ class RolloutResult:
     states: jax.Array | None
 
 
+def _loop(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec) -> SampledLoop:
+    """The rollout as a :class:`~bipedlab.sim.loop.SampledLoop`: exact state sensed, a
+    stateless policy (its state is the sample index), the integrator's step as the substep."""
+    step = integrators.get(spec.integrator)
+
+    def plant_step(params, x, u, d, h, t):
+        return step(lambda z, v: flow(params, z, v), x, u, h)
+
+    def controller(params, k, x, t):
+        return k + 1, policy(params, x, k)
+
+    return SampledLoop(plant_step=plant_step, sensor=lambda p, s, x, t: (s, x), controller=controller,
+                       fell=lambda p, x0, y, u, x: fell(p, x), sample_time=spec.dt * spec.substeps,
+                       substeps=spec.substeps, unroll=True,
+                       log=(lambda p, x0, y, u, x, c: x) if spec.record else None)
+
+
 def rollout(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec, params, x0) -> RolloutResult:
     """Simulate one rollout from x0. ``flow(params, x, u)``, ``policy(params, x, k)`` and
-    ``fell(params, x)`` are pure functions; vmap this function to batch it."""
-    step = integrators.get(spec.integrator)
-    h = spec.dt
-
-    def f(x, u):
-        return flow(params, x, u)
-
-    def control_step(carry, k):
-        x, status, failed_at = carry
-        u = policy(params, x, k)
-        xn = jax.lax.fori_loop(0, spec.substeps, lambda _, x: step(f, x, u, h), x, unroll=True)
-        bad = ~jnp.all(jnp.isfinite(xn))
-        down = fell(params, xn)
-        new_status = jnp.where(bad, NONFINITE, jnp.where(down, FELL, OK))
-        alive = status == OK
-        x = jnp.where(alive & ~bad, xn, x)
-        failed_at = jnp.where(alive & (new_status != OK), k, failed_at)
-        status = jnp.where(alive, new_status, status)
-        return (x, status, failed_at), (x if spec.record else None)
-
-    init = (jnp.asarray(x0), jnp.asarray(OK), jnp.asarray(spec.steps))
-    (x, status, failed_at), states = jax.lax.scan(control_step, init, jnp.arange(spec.steps))
-    return RolloutResult(x, status, failed_at, states)
+    ``fell(params, x)`` are pure functions; vmap this function to batch it. This is the
+    closed loop of :mod:`bipedlab.sim.loop` with a stateless policy and exact sensing."""
+    s0 = loop.initial_state(jnp.asarray(x0), ctrl_state=jnp.asarray(0))
+    s, states = loop.run(_loop(flow, policy, fell, spec), params, s0, spec.steps)
+    failed_at = jnp.where(s.failed_at < 0, spec.steps, s.failed_at)
+    return RolloutResult(s.x, s.status, failed_at, states)
 
 
 def batched_rollout(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec, params, x0,
