@@ -32,6 +32,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree
+
 OK, FELL, NONFINITE = 0, 1, 2
 STATUS_NAMES = {OK: "ok", FELL: "fell", NONFINITE: "non-finite"}
 
@@ -61,8 +63,7 @@ class SampledLoop:
         return self.sample_time / self.substeps
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class LoopState:
     """Plant state ``x``, sensor and controller states, time ``t`` (s), sample index ``k``,
     ``status`` code and ``failed_at`` (sample index of the first failure, -1 while none)."""
@@ -74,9 +75,6 @@ class LoopState:
     k: jax.Array
     status: jax.Array
     failed_at: jax.Array
-
-    def replace(self, **changes) -> "LoopState":
-        return dataclasses.replace(self, **changes)
 
 
 def initial_state(x0, sensor_state=None, ctrl_state=None, t0=0.0) -> LoopState:
