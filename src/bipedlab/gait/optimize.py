@@ -32,6 +32,7 @@ import scipy.optimize
 
 from bipedlab.control import hzd
 from bipedlab.mechanics.dynamics import total_mass
+from bipedlab.sim.integrators import rk4_t
 from bipedlab.mechanics.stance import Stance, impact, swing_height, swing_position
 
 
@@ -127,11 +128,7 @@ def integrate_zero_dynamics(prob: GaitProblem, vc, theta_dot_plus):
         return d, (u, grf, z)
 
     def body(w, theta):
-        k1, sample = g(theta, w)
-        k2 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k1)[0]
-        k3 = g(theta + 0.5 * hstep, w + 0.5 * hstep * k2)[0]
-        k4 = g(theta + hstep, w + hstep * k3)[0]
-        wn = w + (hstep / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+        wn, sample = rk4_t(g, theta, w, hstep)
         return wn, (wn, sample)
 
     w0 = jnp.stack([0.5 * theta_dot_plus**2, 0.0, 0.0, 0.0])

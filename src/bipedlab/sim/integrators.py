@@ -52,3 +52,35 @@ def get(name: str):
         return INTEGRATORS[name]
     except KeyError:
         raise ValueError(f"unknown integrator {name!r}; choose from {', '.join(INTEGRATORS)}") from None
+
+
+def rk4_t(f: Callable, t, x, h):
+    """RK4 step of the non-autonomous ``xdot, aux = f(t, x)`` (e.g. integration in a phase
+    variable). Returns (x(t + h), aux at the first stage)."""
+    k1, aux = f(t, x)
+    k2 = f(t + 0.5 * h, x + 0.5 * h * k1)[0]
+    k3 = f(t + 0.5 * h, x + 0.5 * h * k2)[0]
+    k4 = f(t + h, x + h * k3)[0]
+    return x + (h / 6.0) * (k1 + 2.0 * (k2 + k3) + k4), aux
+
+
+_STAGE_OFFSET = (0.0, 0.5, 0.5, 1.0)
+
+
+def rk4_t_scan(f: Callable, t, x, h):
+    """The same RK4 step with its four stages as one ``lax.scan`` over a single traced ``f``:
+    the compiled program holds f once instead of four times (much shorter compile times for
+    large flows; sums the stages in sequence, so results differ from :func:`rk4_t` by
+    rounding). Returns (x(t + h), aux at the first stage)."""
+    import jax
+    import jax.numpy as jnp
+
+    coeffs = jnp.stack([jnp.asarray(_STAGE_OFFSET), jnp.asarray([1.0, 2.0, 2.0, 1.0]) / 6.0], 1)
+
+    def stage(carry, c):
+        acc, k = carry
+        dx, aux = f(t + c[0] * h, x + c[0] * h * k)
+        return (acc + c[1] * h * dx, dx), aux
+
+    (xn, _), auxs = jax.lax.scan(stage, (x, jnp.zeros_like(x)), coeffs)
+    return xn, jax.tree_util.tree_map(lambda a: a[0], auxs)
