@@ -7,8 +7,8 @@ Normal force (Marhefka & Orin 1996, nonlinear spring-damper in the penetration d
 zero while the point is above the terrain. The depth factor d^n on the damper makes the force
 vanish continuously at first touch (no jump at impact, unlike a linear damper), and
 ``F_N >= 0`` keeps the ground from pulling. Compression and restitution may have different
-damping coefficients (``damping_in``, ``damping_out``). How MABEL's Table VI maps onto these
-parameters is stated, with the reasons, in :mod:`bipedlab.robots.mabel.tables`.
+damping coefficients (``damping_in``, ``damping_out``). A robot package states how its
+published ground parameters map onto these, with the reasons.
 
 Tangential force (LuGre, Canudas de Wit et al. 1995), written per unit normal force as in
 Plestan et al. 2003, with a bristle deflection z (m) as an extra state per contact:

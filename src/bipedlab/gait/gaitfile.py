@@ -83,6 +83,6 @@ def shipped_text(package: str, name: str) -> tuple[str, str]:
 
 
 def shipped(package: str, name: str):
-    """A gait shipped with a robot package, e.g. ``shipped('bipedlab.robots.five_link', 'five_link_0.8')``."""
+    """A gait shipped with a robot package, ``data/NAME.json`` inside ``package``."""
     text, label = shipped_text(package, name)
     return from_dict(json.loads(text), label)

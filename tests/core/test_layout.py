@@ -1,0 +1,152 @@
+"""The package's structure as a contract: a core that names no robot, robots that use the core
+and no other robot, no import cycle between folders, and one implementation of each shared
+algorithm (RK4, event location, the closed loop)."""
+from __future__ import annotations
+
+import ast
+import itertools
+import re
+from pathlib import Path
+
+import pytest
+
+import bipedlab
+
+PKG = Path(bipedlab.__file__).parent
+CORE = ["mechanics", "contact", "sim", "control", "gait", "viz", "io", "report"]
+ROBOT_WORDS = re.compile(r"mabel|atrias|seven[_ -]?link|five[_ -]?link|compass|rabbit", re.I)
+
+
+def _modules():
+    for path in sorted(PKG.rglob("*.py")):
+        rel = path.relative_to(PKG).with_suffix("")
+        parts = list(rel.parts)
+        if parts[-1] == "__init__":
+            parts = parts[:-1]
+        yield "bipedlab." + ".".join(parts) if parts else "bipedlab", path
+
+
+def _imports(path: Path):
+    tree = ast.parse(path.read_text())
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                yield a.name
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            yield node.module
+            for a in node.names:
+                yield f"{node.module}.{a.name}"
+
+
+def _unit(module: str) -> str | None:
+    """The folder a module belongs to: a core folder, 'robots.<name>', or None (top level)."""
+    parts = module.split(".")
+    if len(parts) < 2 or parts[0] != "bipedlab":
+        return None
+    if parts[1] == "robots":
+        return f"robots.{parts[2]}" if len(parts) > 2 else None
+    return parts[1] if parts[1] in CORE else None
+
+
+def _graph():
+    g: dict[str, set[str]] = {}
+    for mod, path in _modules():
+        u = _unit(mod)
+        if u is None:
+            continue
+        for imp in _imports(path):
+            v = _unit(imp)
+            if v is not None and v != u:
+                g.setdefault(u, set()).add(v)
+    return g
+
+
+def test_core_imports_no_robot():
+    offenders = [(mod, imp) for mod, path in _modules() if _unit(mod) in CORE
+                 for imp in _imports(path) if imp.startswith("bipedlab.robots")]
+    assert not offenders, offenders
+
+
+def test_robots_import_no_other_robot():
+    g = _graph()
+    offenders = [(u, v) for u, vs in g.items() if u.startswith("robots.") for v in vs if v.startswith("robots.")]
+    assert not offenders, offenders
+
+
+def test_no_import_cycle_between_folders():
+    g = _graph()
+    nodes = set(g) | set(itertools.chain.from_iterable(g.values()))
+    state: dict[str, int] = {}
+    cycle: list[str] = []
+
+    def visit(n, stack):
+        state[n] = 1
+        for m in g.get(n, ()):
+            if state.get(m) == 1:
+                cycle.extend(stack[stack.index(m):] + [m] if m in stack else [n, m])
+                return True
+            if state.get(m) is None and visit(m, stack + [m]):
+                return True
+        state[n] = 2
+        return False
+
+    for n in sorted(nodes):
+        if state.get(n) is None and visit(n, [n]):
+            break
+    assert not cycle, " -> ".join(cycle)
+
+
+def test_core_source_names_no_robot():
+    """No robot's name in the core's code or docstrings (a robot lives in robots/<name>/)."""
+    hits = []
+    for mod, path in _modules():
+        if _unit(mod) in CORE:
+            for i, line in enumerate(path.read_text().splitlines(), 1):
+                if ROBOT_WORDS.search(line):
+                    hits.append(f"{path.relative_to(PKG)}:{i}: {line.strip()}")
+    assert not hits, "\n".join(hits)
+
+
+def _defs(name_pattern: str):
+    pat = re.compile(name_pattern)
+    out = []
+    for mod, path in _modules():
+        for node in ast.walk(ast.parse(path.read_text())):
+            if isinstance(node, (ast.FunctionDef, ast.AsyncFunctionDef)) and pat.fullmatch(node.name):
+                out.append(f"{mod}.{node.name}")
+    return out
+
+
+RK4_COMBINATION = re.compile(r"k1\s*\+\s*2(\.0)?\s*\*\s*\(?k2")
+
+
+@pytest.mark.parametrize("what", ["rk4 formula"])
+def test_one_rk4(what):
+    """The RK4 stage combination appears only in sim/integrators.py."""
+    hits = [str(path.relative_to(PKG)) for _, path in _modules()
+            if RK4_COMBINATION.search(path.read_text()) and path.name != "integrators.py"]
+    assert not hits, hits
+
+
+def test_one_event_locator_and_one_closed_loop():
+    """Event-location methods and the sampled-data loop are defined once, in sim/."""
+    locators = [d for d in _defs(r"(flow_to_event|regula_falsi|bisection|newton|secant)") if not d.startswith("bipedlab.sim.")]
+    assert not locators, locators
+    loops = [d for d in _defs(r"(closed_loop|sampled_loop|run_loop)") if not d.startswith("bipedlab.sim.")]
+    assert not loops, loops
+
+
+def test_one_container_idiom():
+    """Parameters and states are frozen dataclasses: no NamedTuple and no hand-written replace."""
+    hits = []
+    for mod, path in _modules():
+        text = path.read_text()
+        for node in ast.walk(ast.parse(text)):
+            if isinstance(node, ast.ClassDef):
+                bases = [ast.unparse(b) for b in node.bases]
+                if any("NamedTuple" in b for b in bases):
+                    hits.append(f"{mod}.{node.name}: NamedTuple")
+                for item in node.body:
+                    if isinstance(item, ast.FunctionDef) and item.name == "replace" and mod != "bipedlab.pytree":
+                        hits.append(f"{mod}.{node.name}.replace")
+    assert not hits, hits
