@@ -42,12 +42,14 @@ def eigenvalues(J):
     return ev[np.argsort(-np.abs(ev))]
 
 
-def central_differences(fun, x, step=1e-6):
+def central_differences(fun, x, step=1e-6, relative: bool = True):
+    """Jacobian of ``fun`` at ``x`` by central differences (the check on the autodiff one);
+    the step of coordinate i is ``step * max(1, |x_i|)`` when ``relative``, else ``step``."""
     fun = jax.jit(fun)
     x = np.asarray(x, float)
     cols = []
     for i in range(x.size):
         e = np.zeros_like(x)
-        e[i] = step * max(1.0, abs(x[i]))
+        e[i] = step * max(1.0, abs(x[i])) if relative else step
         cols.append((np.asarray(fun(jnp.asarray(x + e))) - np.asarray(fun(jnp.asarray(x - e)))) / (2 * e[i]))
     return np.stack(cols, 1)

@@ -12,7 +12,6 @@ eigenvalue).
 from __future__ import annotations
 
 import dataclasses
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -20,6 +19,8 @@ import numpy as np
 
 from bipedlab.control import hzd
 from bipedlab.mechanics.stance import Stance, embed, impact, stance_affine, swing_height, swing_position
+from bipedlab.gait.poincare import central_differences
+from bipedlab.pytree import pytree
 from bipedlab.sim.events import flow_to_event
 from bipedlab.sim.rollout import OK
 
@@ -71,7 +72,8 @@ def control_law(vc: hzd.VirtualConstraints, st: Stance, ctrl: Controller):
     raise ValueError(f"unknown controller {ctrl.kind!r}; choose 'iolin' or 'pd'")
 
 
-class Step(NamedTuple):
+@pytree
+class Step:
     z_minus: jax.Array       # state at the next touchdown
     z_plus: jax.Array        # state after the impact that started the step
     duration: jax.Array      # s
@@ -118,7 +120,7 @@ def walk(vc, st: Stance, ctrl: Controller, z_minus, steps: int, h: float = 1e-3,
         s = step(vc, st, ctrl, z, h, max_time, min_height)
         status = jnp.where(status == OK, s.status, status)
         z = jnp.where(status == OK, s.z_minus, z)
-        return (z, status), s._replace(status=status)
+        return (z, status), s.replace(status=status)
 
     _, out = jax.lax.scan(body, (jnp.asarray(z_minus), jnp.asarray(OK)), None, length=steps)
     return out
@@ -132,14 +134,7 @@ def poincare_jacobian(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3
 def poincare_jacobian_fd(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3,
                          delta: float = 1e-6) -> np.ndarray:
     """Central finite differences of the same map (the check on the autodiff Jacobian)."""
-    P = jax.jit(lambda z: step(vc, st, ctrl, z, h).z_minus)
-    z = np.asarray(z_minus)
-    cols = []
-    for i in range(z.size):
-        e = np.zeros_like(z)
-        e[i] = delta
-        cols.append((np.asarray(P(z + e)) - np.asarray(P(z - e))) / (2 * delta))
-    return np.stack(cols, 1)
+    return central_differences(lambda z: step(vc, st, ctrl, z, h).z_minus, z_minus, delta, relative=False)
 
 
 def restricted_map(vc, st: Stance, theta_dot_minus, nodes: int = 60):

@@ -32,16 +32,18 @@ Everything runs inside ``lax.while_loop`` (forward-mode differentiable) and retu
 """
 from __future__ import annotations
 
-from typing import Callable, NamedTuple
+from typing import Callable
 
 import jax
 import jax.numpy as jnp
 
+from bipedlab.pytree import pytree
 from bipedlab.sim.integrators import rk4
 from bipedlab.sim.rollout import FELL, NONFINITE, OK
 
 
-class StepResult(NamedTuple):
+@pytree
+class StepResult:
     """State at the event, its time, the integrals of ``integrand`` over the step (rectangle
     rule at the RK4 steps), the number of loop iterations, the guard value at the event, and
     the status code."""
@@ -160,3 +162,11 @@ def first_on_grid(values_hold, ts):
 def linear_crossing(g0, g1, target=0.0):
     """Fraction in [0, 1] of a step at which g, linear from g0 to g1, reaches ``target``."""
     return jnp.clip((target - g0) / jnp.where(g1 - g0 == 0, 1.0, g1 - g0), 0.0, 1.0)
+
+
+def bisection_step(crossed, lo, hi, mid):
+    """One halving of the bracket [lo, hi] given ``crossed`` at its midpoint ``mid``: the
+    update of :func:`bisection`, for loops that interleave the halvings with their own work
+    (e.g. one integration step per iteration shared by stepping and locating). Returns the
+    new (lo, hi)."""
+    return jnp.where(crossed, lo, mid), jnp.where(crossed, mid, hi)

@@ -67,7 +67,7 @@ class CompassGaitParams:
 
 def params(slope_deg: float = 3.0, **kw) -> CompassGaitParams:
     """Goswami's robot (a = b = 0.5 m, m = 5 kg, m_hip = 10 kg) on a slope given in degrees."""
-    return CompassGaitParams(slope=jnp.asarray(slope_deg * jnp.pi / 180.0), **kw)
+    return CompassGaitParams(slope=jnp.asarray(slope_deg * jnp.pi / 180.0, dtype=jnp.float64), **kw)
 
 
 def model(p: CompassGaitParams):
