@@ -30,7 +30,6 @@ here (a core gap).
 """
 from __future__ import annotations
 
-import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -38,12 +37,9 @@ import jax.numpy as jnp
 from bipedlab.mechanics import (Body, Point, build_model, kinetic_energy, point_position,
                                 point_velocity, potential_energy)
 from bipedlab.mechanics import stance as stance_lib
+from bipedlab.pytree import pytree, static_field
 
-_static = dict(metadata=dict(static=True))
-
-
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class CompassGaitParams:
     """Compass-gait parameters. a: foot to leg COM (m); b: leg COM to hip (m); m: leg mass
     (kg); m_hip: hip mass (kg); gravity (m/s^2); slope: ground slope, descending in +x (rad).
@@ -52,12 +48,12 @@ class CompassGaitParams:
     once the swing foot is this far (m, along the slope) ahead of the stance foot."""
 
     slope: jax.Array = 3.0 * jnp.pi / 180.0
-    a: float = dataclasses.field(default=0.5, **_static)
-    b: float = dataclasses.field(default=0.5, **_static)
-    m: float = dataclasses.field(default=5.0, **_static)
-    m_hip: float = dataclasses.field(default=10.0, **_static)
-    gravity: float = dataclasses.field(default=9.81, **_static)
-    arm_distance: float = dataclasses.field(default=0.05, **_static)
+    a: float = static_field(0.5)
+    b: float = static_field(0.5)
+    m: float = static_field(5.0)
+    m_hip: float = static_field(10.0)
+    gravity: float = static_field(9.81)
+    arm_distance: float = static_field(0.05)
 
     @property
     def length(self) -> float:

@@ -10,7 +10,6 @@ time), then applies the plastic impact and the swap. Images of the map lie on th
 from __future__ import annotations
 
 import dataclasses
-from typing import NamedTuple
 
 import jax
 import jax.numpy as jnp
@@ -18,9 +17,10 @@ import numpy as np
 
 from bipedlab.gait import poincare
 from bipedlab.sim import OK
+from bipedlab.pytree import pytree
 from bipedlab.sim.events import flow_to_event
 
-from . import model as cg
+from bipedlab.robots.compass_gait import model as cg
 
 #: RK4 step of the stance flow, s (global error ~1e-10 rad on a 0.7 s step).
 H = 2e-3
@@ -31,7 +31,8 @@ MAX_TIME = 4.0
 GUESS = np.array([0.22, -0.54, -1.09, 0.71])
 
 
-class Step(NamedTuple):
+@pytree
+class Step:
     """One step: post-impact state after the swap (4,), the pre-impact state (4,), step period
     (s), step vector between the feet (2,) m, impact impulse (2,) N s, kinetic energy before
     and after the impact (J), and the status code of the event location (``bipedlab.sim.OK``)."""
