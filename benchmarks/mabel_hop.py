@@ -19,10 +19,10 @@ def main(hops: int = 100) -> None:
     m = hm.mm.hopping_model()
     p = hop.paper_params()
     x0 = hm.initial_state(m, p)
-    c0 = hop.initial_state(p, hm._sense(m, p, x0)[0])
+    c0 = hop.initial_state(p, hm.sense(m, p, x0)[0])
     steps = int((hops + 1) * 0.62 / float(p.period))
     t0 = time.perf_counter()
-    run = hm._closed_loop.lower(m, p, x0, c0, steps=steps).compile()
+    run = hm.run_samples_jit.lower(m, p, x0, c0, steps=steps).compile()
     compile_s = time.perf_counter() - t0
     best = float("inf")
     for _ in range(3):

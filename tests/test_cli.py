@@ -136,3 +136,143 @@ def test_bench_simulates_the_scenario(bench_records):
     # 1.6 cm above the ground, so the hip is in free fall: y = 0.78 - g t^2 / 2
     for rec in bench_records.values():
         assert rec["final_hip_height_m"] == pytest.approx(0.78 - 0.5 * 9.81 * 0.02**2, abs=1e-9)
+
+
+# ---- the registry: commands collected from the robot packages ------------------------------
+
+import importlib  # noqa: E402
+import pathlib  # noqa: E402
+import types  # noqa: E402
+
+from bipedlab import cli  # noqa: E402
+
+
+def _commands():
+    return cli.commands()
+
+
+def _one_error_line(argv, capsys) -> str:
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2, argv
+    captured = capsys.readouterr()
+    assert captured.out == ""
+    lines = captured.err.splitlines()
+    assert len(lines) == 1 and lines[0].startswith("bipedlab: error: "), captured.err
+    return lines[0]
+
+
+@pytest.mark.parametrize("name", [c.name for c in cli.commands()])
+def test_every_command_parser_builds_and_help_exits_0(name, capsys):
+    with pytest.raises(SystemExit) as exc:
+        main(name.split() + ["--help"])
+    assert exc.value.code == 0
+    out = capsys.readouterr().out
+    assert out.startswith(f"usage: bipedlab {name}") and "--json" in out
+
+
+def _options(p) -> set:
+    return {s for a in p._actions for s in a.option_strings if s.startswith("--") and s != "--help"}
+
+
+def _positionals(p) -> list:
+    """A valid value for each positional argument of a command (its first choice)."""
+    return [a.choices[0] for a in p._actions if not a.option_strings and a.choices and a.dest != "help"]
+
+
+def test_an_option_of_one_robot_is_refused_by_another(capsys):
+    parsers = cli.command_parsers(cli.build_parser())
+    by_verb = {}
+    for c in cli.commands():
+        if c.robot is not None:
+            by_verb.setdefault(c.verb, []).append(c.name)
+    checked = 0
+    for names in by_verb.values():
+        for a in names:
+            for b in names:
+                for opt in sorted(_options(parsers[a]) - _options(parsers[b])):
+                    line = _one_error_line(b.split() + _positionals(parsers[b]) + [opt, "1"], capsys)
+                    assert f"{b}: unrecognized arguments: {opt}" in line, line
+                    checked += 1
+    assert checked > 10
+    # the cases that used to be checked by hand
+    for argv, needle in ((["optimize", "five-link", "--step-length", "0.575"], "--step-length"),
+                         (["walk", "five-link", "--push", "78@3"], "--push"),
+                         (["walk", "mabel", "--perturb", "0.1"], "--perturb"),
+                         (["walk", "mabel", "--params", "paper"], "--params")):
+        assert needle in _one_error_line(argv, capsys)
+
+
+def test_a_verb_without_the_robot_or_without_a_robot_is_one_line(capsys):
+    assert "five-link" in _one_error_line(["hop", "five-link"], capsys)
+    line = _one_error_line(["walk"], capsys)
+    walkers = [c.robot for c in cli.commands() if c.verb == "walk"]
+    assert all(r in line for r in walkers), line
+
+
+def test_the_registry_finds_every_robot_package_with_a_cli():
+    import bipedlab.robots as robots
+
+    on_disk = sorted(f"bipedlab.robots.{d.name}.cli" for p in robots.__path__ for d in pathlib.Path(p).iterdir()
+                     if d.is_dir() and (d / "__init__.py").exists() and (d / "cli.py").exists())
+    assert cli.robot_cli_modules() == on_disk
+    assert {"five_link", "mabel", "atrias", "seven_link", "compass_gait"} <= {n.split(".")[2] for n in on_disk}
+    registered = set(cli.commands())
+    for name in on_disk:
+        mod = importlib.import_module(name)
+        assert mod.COMMANDS and set(mod.COMMANDS) <= registered, name
+        for c in mod.COMMANDS:
+            assert isinstance(c, cli.Command) and c.help
+
+
+def test_no_arguments_lists_every_verb_and_command(capsys):
+    assert main([]) == 0
+    studies = capsys.readouterr().out.split("studies:", 1)[1]
+    for c in cli.commands():
+        assert c.verb in studies and c.name in studies and c.help in studies
+
+
+def test_the_core_names_no_robot():
+    text = pathlib.Path(cli.__file__).read_text()
+    for c in cli.commands():
+        if c.robot is not None:
+            assert c.robot not in text, c.robot
+
+
+@pytest.fixture
+def toy_entry_point(monkeypatch):
+    """A third-party package registering `bipedlab greet toy` through the entry-point group."""
+    calls = []
+
+    def add_arguments(p):
+        p.add_argument("--name", default="world")
+
+    def run(args, progress):
+        if args.name == "nobody":
+            raise cli.UsageError("toy: --name must name somebody")
+        progress("greeting")
+        return {"hello": args.name, "ratio": float("nan")}, lambda r: f"hello {r['hello']}"
+
+    toy = types.ModuleType("toy_cli")
+    toy.COMMANDS = [cli.Command("greet", "toy", "say hello", add_arguments, run, compile_cache=False,
+                                before_jax=lambda args: calls.append(args.name))]
+    ep = types.SimpleNamespace(name="toy", load=lambda: toy)
+
+    def entry_points(group=None, **kw):
+        return [ep] if group == cli.ENTRY_POINT_GROUP else []
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
+    monkeypatch.setattr(cli, "_enable_compile_cache", lambda: calls.append("cache"))
+    return calls
+
+
+def test_entry_point_commands_run_through_the_one_emit(toy_entry_point, capsys):
+    assert main(["greet", "toy", "--name", "there", "--json"]) == 0
+    captured = capsys.readouterr()
+    assert json.loads(captured.out) == {"hello": "there", "ratio": None}  # non-finite -> null
+    assert "[bipedlab] greeting" in captured.err
+    assert toy_entry_point == ["there"]  # before_jax ran, the compile cache was left alone
+    assert main(["greet", "toy"]) == 0
+    assert capsys.readouterr().out.strip() == "hello world"
+    assert "toy: --name must name somebody" in _one_error_line(["greet", "toy", "--name", "nobody"], capsys)
+    assert "greet toy" in cli.listing()

@@ -1,38 +1,91 @@
-"""The ``bipedlab`` command: a thin layer over :mod:`bipedlab.studies`.
+"""The ``bipedlab`` command: ``bipedlab <verb> <robot> [options]``, collected from the robots.
 
-``bipedlab <study> [options]`` prints a short summary; ``--json`` prints one JSON object and
-nothing else on stdout; progress goes to stderr; bad input exits with status 2 and one line
-``bipedlab: error: ...``.
+The core names no robot. Each package under :mod:`bipedlab.robots` may hold a ``cli.py``
+whose ``COMMANDS`` is a list of :class:`Command`; the core finds them with
+``pkgutil.iter_modules(bipedlab.robots.__path__)`` and gives every (verb, robot) its own
+argparse sub-sub-parser, so a robot has exactly its own options. A command with
+``robot=None`` (e.g. ``bench``) is ``bipedlab <verb> [options]``.
+
+Third-party packages register commands the same way through the entry-point group
+``bipedlab.robots``: each entry point names a module with ``COMMANDS`` (or the list itself),
+e.g. in pyproject.toml::
+
+    [project.entry-points."bipedlab.robots"]
+    my_walker = "my_walker.cli"
+
+Contract: ``bipedlab <verb> <robot> [options]`` prints the study's summary; ``--json`` (added
+to every command by the core unless the command declares it) prints one JSON object and nothing else on stdout, non-finite
+floats as null; progress goes to stderr; bad input exits with status 2 and one line
+``bipedlab: error: ...`` on stderr. ``bipedlab`` alone lists the studies. A command's ``run``
+reports bad input by raising :class:`UsageError`; it imports its study modules itself, so
+that building the parser (``bipedlab --help``) stays fast.
 """
 from __future__ import annotations
 
 import argparse
+import importlib
 import json
 import math
+import pkgutil
 import sys
+from dataclasses import dataclass
+from typing import Callable, Optional
 
-STUDIES = {
-    "bench": "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
-    "optimize": "design a periodic HZD walking gait by optimisation (five-link, mabel)",
-    "walk": "closed-loop walking: HZD from a designed gait (five-link, mabel), nonkinematic (seven-link)",
-    "experiment": "walking experiments: mabel nominal|push|efficient|tracking|impact-scaling|fast|sweep; seven-link free-swing|low-gain-pd",
-    "run": "spring-mass running embedded in the articulated ATRIAS-like biped on unobserved terrain (atrias)",
-    "hop": "two-legged hopping on MABEL's 13-DoF model, with Poincaré analysis (mabel)",
-    "identify": "MABEL's system identification from synthetic experiments or logged data (mabel)",
-}
+ENTRY_POINT_GROUP = "bipedlab.robots"
+VERB_ORDER = ("bench", "optimize", "walk", "experiment", "run", "hop", "identify")
+"""Listing order of the verbs (others follow alphabetically)."""
 
 
-MABEL_EXPERIMENTS = ["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep"]
-SEVEN_LINK_EXPERIMENTS = ["free-swing", "low-gain-pd"]
+@dataclass(frozen=True)
+class Command:
+    """One study of the ``bipedlab`` command.
+
+    verb: the first word ("walk", "optimize", "experiment", "hop", "run", "identify", "bench").
+    robot: the second word (a robot package's name for itself, e.g. "my-biped"), or None for a verb without one (bench).
+    help: one line for the listings.
+    add_arguments(parser): adds the command's options; the core adds ``--json`` after it
+        unless it declared one.
+    run(args, progress) -> (record, summary): runs the study on the parsed options; progress
+        is a one-argument callable printing to stderr; raises UsageError on bad input; the
+        record is a JSON-able dict and summary(record) the human-readable text.
+    compile_cache: whether to point JAX's persistent compilation cache at the cache directory
+        before running.
+    before_jax(args): optional hook run first, before JAX touches a device (e.g. to set the
+        number of CPU devices).
+    """
+
+    verb: str
+    robot: Optional[str]
+    help: str
+    add_arguments: Callable[[argparse.ArgumentParser], None]
+    run: Callable[[argparse.Namespace, Callable[[str], None]], tuple]
+    compile_cache: bool = True
+    before_jax: Optional[Callable[[argparse.Namespace], None]] = None
+
+    @property
+    def name(self) -> str:
+        """The command line's words: "walk <robot>", or "bench"."""
+        return self.verb if self.robot is None else f"{self.verb} {self.robot}"
+
+
+class UsageError(Exception):
+    """Bad input found by a command's run: reported as one ``bipedlab: error:`` line, status 2."""
 
 
 class _Parser(argparse.ArgumentParser):
-    def error(self, message):  # one line, status 2, no usage dump
-        print(f"bipedlab: error: {message}", file=sys.stderr)
+    """An ArgumentParser whose errors are one line on stderr, status 2, no usage dump; a
+    command's parser prefixes its errors with the command ("walk <robot>: ...")."""
+
+    command = ""
+
+    def error(self, message):
+        prefix = f"{self.command}: " if self.command else ""
+        print(f"bipedlab: error: {prefix}{message}", file=sys.stderr)
         raise SystemExit(2)
 
 
-def _positive_int(text: str) -> int:
+def positive_int(text: str) -> int:
+    """argparse type: an integer > 0."""
     try:
         v = int(text)
     except ValueError:
@@ -53,12 +106,17 @@ def _number(text: str, strict: bool) -> float:
     return v
 
 
-def _positive_float(text: str) -> float:
+def positive_float(text: str) -> float:
+    """argparse type: a finite number > 0."""
     return _number(text, strict=True)
 
 
-def _nonnegative_float(text: str) -> float:
+def nonnegative_float(text: str) -> float:
+    """argparse type: a finite number >= 0."""
     return _number(text, strict=False)
+
+
+_positive_int, _positive_float, _nonnegative_float = positive_int, positive_float, nonnegative_float
 
 
 def _progress(msg: str) -> None:
@@ -79,119 +137,132 @@ def _enable_compile_cache() -> None:
         pass
 
 
-def build_parser() -> argparse.ArgumentParser:
-    epilog = "studies:\n" + "\n".join(f"  {k:<10} {v}" for k, v in STUDIES.items())
-    p = _Parser(prog="bipedlab", description="Planar bipedal robots: models, controllers, batched simulation.",
-                epilog=epilog, formatter_class=argparse.RawDescriptionHelpFormatter)
-    sub = p.add_subparsers(dest="study", metavar="<study>", parser_class=_Parser)
-    b = sub.add_parser("bench", help=STUDIES["bench"], description=STUDIES["bench"])
-    b.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    b.add_argument("--batch", type=_positive_int, nargs="+", default=[64, 256], metavar="N",
-                   help="batch sizes for the batched bipedlab runs (64 is always run)")
-    b.add_argument("--seconds", type=_positive_float, default=2.0, help="simulated seconds per rollout")
-    b.add_argument("--threads", type=_positive_int, default=None, help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
-    b.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
+# ----------------------------------------------------------------------------- registry
+def _module_commands(obj) -> list:
+    """The Commands of a module (its COMMANDS) or of a list given directly."""
+    cmds = list(getattr(obj, "COMMANDS", obj))
+    for c in cmds:
+        if not isinstance(c, Command):
+            raise TypeError(f"{getattr(obj, '__name__', obj)!r}: COMMANDS must hold bipedlab.cli.Command, got {c!r}")
+    return cmds
 
-    o = sub.add_parser("optimize", help=STUDIES["optimize"], description=STUDIES["optimize"])
-    o.add_argument("robot", choices=["five-link", "mabel"])
-    o.add_argument("--speed", type=_positive_float, default=0.8, help="walking speed, m/s")
-    o.add_argument("--step-length", type=_positive_float, default=None, metavar="L",
-                   help="mabel: prescribe the step length in m (e.g. 0.575, the paper's nominal gait)")
-    o.add_argument("--cost", choices=["torque", "cmt"], default="torque",
-                   help="integral of squared torque per step length, or mechanical cost of transport")
-    o.add_argument("--controller", choices=["iolin", "pd"], default="iolin",
-                   help="five-link: controller for the Poincaré analysis (MABEL reports PD + feedforward and HZD)")
-    o.add_argument("--no-poincare", action="store_true", help="mabel: skip the Poincaré analysis")
-    o.add_argument("--save", metavar="FILE", help="write the gait to FILE (for walk --gait FILE)")
-    o.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    o.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
-    w = sub.add_parser("walk", help=STUDIES["walk"], description=STUDIES["walk"])
-    w.add_argument("robot", choices=["five-link", "mabel", "seven-link"])
-    w.add_argument("--steps", type=_positive_int, default=None, help="number of steps (five-link 50, mabel 100, seven-link 30)")
-    w.add_argument("--params", choices=["paper", "tuned"], default=None,
-                   help="seven-link: the controller's Table II parameters as published, or retuned for the planar model (default tuned)")
-    w.add_argument("--perturb", type=_nonnegative_float, default=0.0,
-                   help="five-link: relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
-    w.add_argument("--controller", choices=["iolin", "pd", "pdff", "decentralized"], default=None,
-                   help="five-link: iolin | pd (default iolin); mabel: pdff | iolin | decentralized (default pdff)")
-    w.add_argument("--gait", metavar="GAIT",
-                   help="a gait file from optimize --save; mabel also takes nominal | efficient | fast (default nominal)")
-    w.add_argument("--push", metavar="FORCE@STEP", help="mabel: horizontal force (N, + forward) on the hip over the second half of step STEP")
-    w.add_argument("--impact-scale", type=_positive_float, default=1.0, metavar="ETA",
-                   help="mabel: impact scaling eta of Section VI-B (post-impact velocity / eta)")
-    w.add_argument("--lean", type=float, default=0.0, metavar="DEG",
-                   help="mabel: lean the torso forward by DEG degrees (swing leg's absolute angle kept), ramped in over --lean-steps steps, as in Exp. 5")
-    w.add_argument("--lean-steps", type=_positive_int, default=20, metavar="N", help="mabel: steps over which --lean is ramped in (default 20)")
-    w.add_argument("--sensing", choices=["encoders", "observer", "ideal"], default="encoders",
-                   help="mabel: 14-bit encoders with filtered differentiated velocities (default), the same encoders "
-                        "with a model-based velocity observer, or the exact state")
-    w.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
-    w.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    w.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+def robot_cli_modules() -> list[str]:
+    """Names of the robot packages' CLI modules, sorted: ``bipedlab.robots.<pkg>.cli`` for
+    every package under bipedlab.robots (found by pkgutil.iter_modules) that has a ``cli``
+    module. Nothing is imported here."""
+    import os
 
-    e = sub.add_parser("experiment", help=STUDIES["experiment"], description=STUDIES["experiment"])
-    e.add_argument("robot", choices=["mabel", "seven-link"])
-    e.add_argument("name", choices=MABEL_EXPERIMENTS + SEVEN_LINK_EXPERIMENTS,
-                   help="mabel: " + " | ".join(MABEL_EXPERIMENTS) + "; seven-link: " + " | ".join(SEVEN_LINK_EXPERIMENTS))
-    e.add_argument("--steps", type=_positive_int, default=None, help="steps per walk (defaults per experiment)")
-    e.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    e.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+    import bipedlab.robots as robots
 
-    h = sub.add_parser("hop", help=STUDIES["hop"], description=STUDIES["hop"])
-    h.add_argument("robot", choices=["mabel"])
-    h.add_argument("--hops", type=_positive_int, default=100, help="hops to simulate (default 100)")
-    h.add_argument("--no-torso-update", action="store_true",
-                   help="the nominal controller, without the event-based torso update (44)")
-    h.add_argument("--no-poincare", action="store_true", help="skip the Poincaré analysis")
-    h.add_argument("--accuracy", action="store_true",
-                   help="also compare the integrator against finer steps and RK4 on the first hop")
-    h.add_argument("--robustness", type=_positive_int, default=None, metavar="N",
-                   help="also drop the robot from N perturbed states and count hops with and without the update")
-    h.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    h.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+    names = []
+    for info in sorted(pkgutil.iter_modules(robots.__path__), key=lambda m: m.name):
+        where = getattr(info.module_finder, "path", None)
+        if info.ispkg and where and any(m.name == "cli" for m in pkgutil.iter_modules([os.path.join(where, info.name)])):
+            names.append(f"{robots.__name__}.{info.name}.cli")
+    return names
 
-    r = sub.add_parser("run", help=STUDIES["run"], description=STUDIES["run"])
-    r.add_argument("robot", choices=["atrias"])
-    r.add_argument("--terrain", choices=["flat", "rough", "slope"], default="flat",
-                   help="flat ground, random steps every 3 m, or a constant slope (default flat)")
-    r.add_argument("--step-height", type=_nonnegative_float, default=None, metavar="H",
-                   help="rough: largest step height in m, steps uniform in [-H, H] (default 0.25)")
-    r.add_argument("--slope", type=float, default=None, metavar="PCT", help="slope: grade in percent (default 1)")
-    span = r.add_mutually_exclusive_group()
-    span.add_argument("--seconds", type=_positive_float, default=None, metavar="T", help="simulated time in s")
-    span.add_argument("--distance", type=_positive_float, default=None, metavar="D",
-                      help="distance to run in m (default 60)")
-    r.add_argument("--noise", action="store_true",
-                   help="sensor noise of Section IV-C: +-3 deg, +-3 deg/s, +-3 cm, +-3 cm/s, sampled every 3 ms")
-    r.add_argument("--delay-ms", type=_nonnegative_float, default=0.0, metavar="MS", help="sensing delay in ms")
-    r.add_argument("--model-error", nargs="+", action="extend", default=[], metavar="NAME=REL",
-                   help="relative error of a model parameter the controller assumes, e.g. mass=0.2 inertia=-0.5")
-    r.add_argument("--energy", choices=["conservation", "regulation"], default="regulation",
-                   help="stance energy management (default regulation)")
-    r.add_argument("--trials", type=_positive_int, default=None, metavar="N",
-                   help="run N random terrains (and noise / model-error draws) batched in one compiled call")
-    r.add_argument("--seed", type=int, default=0, help="seed of the terrain and noise draws")
-    r.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    r.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
 
-    i = sub.add_parser("identify", help=STUDIES["identify"], description=STUDIES["identify"])
-    i.add_argument("robot", choices=["mabel"])
-    source = i.add_mutually_exclusive_group(required=True)
-    source.add_argument("--synthetic", action="store_true",
-                        help="generate the paper's experiments on a perturbed true robot and identify it")
-    source.add_argument("--data", metavar="DIR", help="identify from the CSV logs in DIR (format: bipedlab.robots.mabel.sysid.logs)")
-    i.add_argument("--seed", type=int, default=None, help="synthetic: seed of the true robot and the noise (default 0)")
-    i.add_argument("--noise", type=_nonnegative_float, default=None, metavar="LEVEL",
-                   help="synthetic: rms encoder noise in counts, also scaling amplifier and scale noise (default 1)")
-    i.add_argument("--noise-study", action="store_true",
-                   help="synthetic: also repeat the identification at noise levels 0, 1, 2 and 4")
-    i.add_argument("--quick", action="store_true", help=argparse.SUPPRESS)
-    i.add_argument("--json", action="store_true", help="print one JSON object on stdout")
-    i.add_argument("--out", metavar="DIR", help="write figures (PNG) and, for --synthetic, the logs (CSV) to DIR")
+def _entry_point_commands() -> list:
+    from importlib.metadata import entry_points
+
+    try:
+        eps = entry_points(group=ENTRY_POINT_GROUP)
+    except TypeError:  # Python < 3.10 style API
+        eps = entry_points().get(ENTRY_POINT_GROUP, [])
+    out = []
+    for ep in sorted(eps, key=lambda e: e.name):
+        out += _module_commands(ep.load())
+    return out
+
+
+def commands() -> list[Command]:
+    """Every registered Command: the robot packages' (in package order), then the entry
+    points'. Raises ValueError on two commands for one (verb, robot) or a verb both with and
+    without a robot."""
+    found = []
+    for name in robot_cli_modules():
+        found += _module_commands(importlib.import_module(name))
+    found += _entry_point_commands()
+    seen: dict = {}
+    for c in found:
+        if (c.verb, c.robot) in seen:
+            raise ValueError(f"two commands for '{c.name}'")
+        seen[(c.verb, c.robot)] = c
+    for verb in {c.verb for c in found}:
+        kinds = {c.robot is None for c in found if c.verb == verb}
+        if len(kinds) > 1:
+            raise ValueError(f"'{verb}' is registered both with and without a robot")
+    return found
+
+
+def _verbs(cmds) -> dict:
+    """{verb: [Command, ...]} in listing order."""
+    by = {}
+    for c in cmds:
+        by.setdefault(c.verb, []).append(c)
+    rank = {v: i for i, v in enumerate(VERB_ORDER)}
+    return {v: by[v] for v in sorted(by, key=lambda v: (rank.get(v, len(rank)), v))}
+
+
+def listing(cmds=None) -> str:
+    """The studies, one line per command: verb, robot, help."""
+    by = _verbs(commands() if cmds is None else cmds)
+    rows = [(c.name, c.help) for cs in by.values() for c in cs]
+    w = max((len(n) for n, _ in rows), default=0)
+    return "studies:\n" + "\n".join(f"  {n:<{w}}  {h}" for n, h in rows)
+
+
+def _leaf(sub, name: str, cmd: Command, help_text: str):
+    p = sub.add_parser(name, help=help_text, description=cmd.help)
+    p.command = cmd.name
+    cmd.add_arguments(p)
+    if "--json" not in p._option_string_actions:  # a command may declare it itself, with the same meaning
+        p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    p.set_defaults(_command=cmd)
     return p
 
 
+def build_parser(cmds=None) -> argparse.ArgumentParser:
+    """The argparse parser of every command: ``bipedlab <verb> [<robot>] [options]``."""
+    by = _verbs(commands() if cmds is None else cmds)
+    p = _Parser(prog="bipedlab", description="Planar bipedal robots: models, controllers, batched simulation.",
+                epilog=listing([c for cs in by.values() for c in cs]),
+                formatter_class=argparse.RawDescriptionHelpFormatter)
+    sub = p.add_subparsers(dest="verb", metavar="<study>", parser_class=_Parser)
+    for verb, cs in by.items():
+        if cs[0].robot is None:
+            _leaf(sub, verb, cs[0], cs[0].help)
+            continue
+        robots = [c.robot for c in cs]
+        v = sub.add_parser(verb, help=f"robots: {', '.join(robots)}",
+                           description=f"bipedlab {verb} <robot> [options]; bipedlab {verb} <robot> --help lists "
+                                       "the robot's options.")
+        v.command = verb
+        v.set_defaults(_robots=robots)
+        vs = v.add_subparsers(dest="robot", metavar="<robot>", parser_class=_Parser)
+        for c in cs:
+            _leaf(vs, c.robot, c, c.help)
+    return p
+
+
+def command_parsers(parser) -> dict:
+    """{command name ("walk <robot>", "bench"): its argparse parser} of a built parser."""
+    def subs(p):
+        acts = [a for a in p._actions if isinstance(a, argparse._SubParsersAction)]
+        return acts[0].choices if acts else {}
+
+    out = {}
+    for verb, vp in subs(parser).items():
+        robots = subs(vp)
+        if not robots:
+            out[verb] = vp
+        for robot, rp in robots.items():
+            out[f"{verb} {robot}"] = rp
+    return out
+
+
+# ----------------------------------------------------------------------------- running
 def _json_safe(x):
     """Non-finite floats (a fallen trial's statistics) -> None, so the JSON stays strict."""
     if isinstance(x, dict):
@@ -211,121 +282,31 @@ def _emit(record: dict, as_json: bool, summary) -> None:
 
 
 def main(argv=None) -> int:
+    """Parse argv (default sys.argv[1:]), run the chosen command and print its record."""
     parser = build_parser()
-    args = parser.parse_args(argv)
-    if args.study is None:
+    args, extra = parser.parse_known_args(argv)
+    cmd = getattr(args, "_command", None)
+    if extra:
+        where = f"{cmd.name}: " if cmd is not None else ""
+        parser.error(f"{where}unrecognized arguments: {' '.join(extra)}")
+    if args.verb is None:
         parser.print_help()
         return 0
-    if args.study == "bench":
-        from bipedlab.sim import use_cpu_cores
-        from bipedlab.robots.five_link import bench
-
-        use_cpu_cores(args.threads)  # batched CPU rollouts use every core, as MuJoCo's do
-
-        rec = bench.run(args.batch, args.seconds, args.threads, not args.no_mujoco, progress=bench._eprint)
-        _emit(rec, args.json, bench.summary)
-        return 0
-    _enable_compile_cache()
-    if args.study == "hop":
-        from bipedlab.robots.mabel.hopping import study as hop_mabel
-
-        rec = hop_mabel.study(args.hops, torso_update=not args.no_torso_update, poincare=not args.no_poincare,
-                              accuracy=args.accuracy, robustness_samples=args.robustness, out=args.out,
-                              progress=_progress)
-        _emit(rec, args.json, hop_mabel.summary)
-        return 0
-    if args.study == "identify":
-        return _identify(parser, args)
-    if args.study == "run":
-        from bipedlab.robots.atrias import study as run_atrias
-
-        rec, summary = run_atrias.cli_record(parser, args, progress=run_atrias.progress_bar)
-        _emit(rec, args.json, summary)
-        return 0
-    if getattr(args, "robot", None) == "seven-link":
-        from bipedlab.robots.seven_link import study as walk_seven_link
-
-        rec, summary = walk_seven_link.cli_record(parser, args, progress=_progress)
-        _emit(rec, args.json, summary)
-        return 0
-    if args.study == "experiment":
-        if args.name not in MABEL_EXPERIMENTS:
-            parser.error(f"mabel: experiment must be one of {', '.join(MABEL_EXPERIMENTS)}, got {args.name}")
-        from bipedlab.robots.mabel.walking import experiments as wx
-
-        rec = wx.run(args.name, steps=args.steps, out=args.out, progress=_progress)
-        _emit(rec, args.json, wx.summary)
-        return 0
-    if getattr(args, "params", None) is not None:
-        parser.error("--params applies to seven-link only")
-    if getattr(args, "robot", None) == "mabel":
-        return _mabel(parser, args)
-    if args.study == "walk":
-        if args.controller not in (None, "iolin", "pd"):
-            parser.error(f"five-link: --controller must be iolin or pd, got {args.controller}")
-        if args.push or args.impact_scale != 1.0 or args.lean:
-            parser.error("five-link: --push, --impact-scale and --lean apply to mabel only")
-        args.controller = args.controller or "iolin"
-        args.steps = args.steps or 50
-    from bipedlab.robots.five_link import study as hz
-
-    if args.study == "optimize":
-        if args.step_length is not None:
-            parser.error("five-link: --step-length applies to mabel only")
-        rec = hz.optimize(args.speed, args.cost, args.controller, save=args.save, out=args.out, progress=_progress)
-        _emit(rec, args.json, hz.summary_optimize)
-    elif args.study == "walk":
-        try:
-            hz.load_gait(args.gait)
-        except ValueError as e:
-            parser.error(str(e))
-        rec = hz.walk(args.steps, args.perturb, args.controller, args.gait, args.seed, out=args.out, progress=_progress)
-        _emit(rec, args.json, hz.summary_walk)
-    return 0
-
-
-def _identify(parser, args) -> int:
-    from bipedlab.robots.mabel.sysid import study as im
-    from bipedlab.robots.mabel.sysid import LogError
-
-    if args.data is not None and (args.seed is not None or args.noise is not None or args.noise_study):
-        parser.error("--seed, --noise and --noise-study apply to --synthetic only")
+    if cmd is None:
+        parser.error(f"{args.verb}: choose a robot: {', '.join(args._robots)}")
+    if cmd.before_jax is not None:
+        cmd.before_jax(args)
+    if cmd.compile_cache:
+        _enable_compile_cache()
     try:
-        rec = im.study(data=args.data, seed=args.seed or 0, noise=1.0 if args.noise is None else args.noise,
-                       out=args.out, quick=args.quick, noise_levels=(0.0, 1.0, 2.0, 4.0) if args.noise_study else None,
-                       progress=_progress)
-    except LogError as e:
+        record, summary = cmd.run(args, _progress)
+    except UsageError as e:
         parser.error(str(e))
-    _emit(rec, args.json, im.summary)
-    return 0
-
-
-def _mabel(parser, args) -> int:
-    from bipedlab.robots.mabel.walking import study as wm
-
-    if args.study == "optimize":
-        rec = wm.optimize(args.speed, args.cost, save=args.save, out=args.out, poincare_check=not args.no_poincare,
-                          progress=_progress, step_length=args.step_length)
-        _emit(rec, args.json, wm.summary_optimize)
-        return 0
-    controller = args.controller or "pdff"
-    if controller == "pd":
-        parser.error("mabel: --controller must be pdff, iolin or decentralized")
-    if args.perturb:
-        parser.error("mabel: --perturb applies to five-link; use --push or --impact-scale")
-    gait = args.gait or "nominal"
-    try:
-        wm.load_gait(gait)
-        wm.parse_push(args.push)
-    except ValueError as e:
-        parser.error(str(e))
-    if not (math.isfinite(args.lean) and abs(args.lean) <= 45.0):
-        parser.error(f"mabel: --lean must be within +-45 degrees, got {args.lean}")
-    rec = wm.walk(gait, controller, args.steps or 100, push=args.push, eta=args.impact_scale, sensing=args.sensing,
-                  out=args.out, progress=_progress, lean_deg=args.lean, lean_steps=args.lean_steps)
-    _emit(rec, args.json, wm.summary_walk)
+    _emit(record, args.json, summary)
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    from bipedlab.cli import main as _main  # the registered module, not a second copy as __main__
+
+    sys.exit(_main())

@@ -21,6 +21,20 @@ whose inactive rows read ``lambda_i = 0``, so shapes never change under ``jit``:
 and :func:`impact` (drop previously active unilateral elements whose impulse would pull) are the
 LCP-like checks of the force and impulse signs. Active rows must be independent (the caller
 leaves redundant rows out of the mask).
+
+Point contacts (any planar robot; the robot supplies positions, Jacobians and which rows an
+element owns):
+
+* :func:`point_constraint_values` / :func:`point_constraint_jacobian`: the rows of ``k``
+  contact points ``P (k, 2)`` - heights ``y_i = 0`` (unilateral, force >= 0), ``x_i - anchor_i = 0``
+  (no slip) - followed by linear joint rows ``L q = 0`` (e.g. hyperextension stops);
+* :func:`element_values`: an element's normal force (or gap acceleration, impulse) from the
+  row vector;
+* :func:`plastic_impact`: the impact over ``active | new`` with the impulse-sign check of
+  :func:`impact`;
+* :func:`project_state` / :func:`constraint_residual`: Newton position steps and the velocity
+  projection onto the active rows, and the drift of a state, for any ``constraint_fn(q, qd) ->
+  (M, g, A)``.
 """
 from __future__ import annotations
 
@@ -112,3 +126,55 @@ def impact(impulse_fn, active, keep, iterations: int, min_separation: float = 0.
     qdp, imp, _ = impulse_fn(active)
     active, qdp, imp, _ = jax.lax.fori_loop(0, iterations, body, (active, qdp, imp, jnp.zeros(active.shape, bool)))
     return qdp, imp, active
+
+
+# ----------------------------------------------------------------------------- point contacts
+def point_constraint_values(P, anchors, L, q):
+    """g (2k + j,): heights ``P[:, 1]``, ``P[:, 0] - anchors`` (no slip), then ``L q`` (j linear
+    joint rows)."""
+    return jnp.concatenate([P[:, 1], P[:, 0] - anchors, jnp.asarray(L) @ q])
+
+
+def point_constraint_jacobian(J, Jd, L):
+    """(A (2k + j, n), Adot qd (2k + j,)) of :func:`point_constraint_values` from the point
+    Jacobians ``J (k, 2, n)`` and their ``Jdot qd (k, 2)``."""
+    L = jnp.asarray(L)
+    A = jnp.concatenate([J[:, 1, :], J[:, 0, :], L])
+    ab = jnp.concatenate([Jd[:, 1], Jd[:, 0], jnp.zeros(L.shape[0])])
+    return A, ab
+
+
+def element_values(rows, element_rows):
+    """(e,) the entries of a row vector (forces, impulses, gap accelerations) that belong to the
+    elements: ``element_rows`` is a tuple of static slices or indices, concatenated in order."""
+    return jnp.concatenate([rows[i] if isinstance(i, slice) else rows[i:i + 1] for i in element_rows])
+
+
+def plastic_impact(M, A, qd, active, new, row_mask, element_rows, iterations: int, min_separation: float = 0.0):
+    """Plastic impact when the elements ``new`` make contact (see :func:`impact`):
+    ``row_mask(active) -> (m,)`` float mask of the rows. Returns (qd+, impulses (e,), active)."""
+    def impulse_fn(a):
+        qdp, imp = project_velocity(M, A, qd, row_mask(a))
+        return qdp, element_values(imp, element_rows), element_values(A @ qdp, element_rows)
+
+    return impact(impulse_fn, active | new, new, iterations, min_separation)
+
+
+def constraint_residual(g, A, qd, mask):
+    """(max |g|, max |A qd|) over the active rows."""
+    return jnp.max(jnp.abs(g * mask)), jnp.max(jnp.abs((A @ qd) * mask))
+
+
+def project_state(constraint_fn, q, qd, mask, newton: int = 2):
+    """(q, qd) projected onto the active rows - ``newton`` M-weighted Newton steps on the
+    positions (:func:`project_position`), then the exact velocity projection - and the
+    residual (position, velocity) before. ``constraint_fn(q, qd) -> (M, g, A)``."""
+    res0 = None
+    for k in range(newton):
+        M, g, A = constraint_fn(q, qd)
+        if k == 0:
+            res0 = constraint_residual(g, A, qd, mask)
+        q = q + project_position(M, A, g, mask)
+    M, _, A = constraint_fn(q, qd)
+    qd, _ = project_velocity(M, A, qd, mask)
+    return q, qd, res0

@@ -1,4 +1,6 @@
-"""Unobserved terrains of the running study: flat, random steps, constant slope.
+"""The one terrain type: flat ground, steps, a constant slope, or a height function sampled
+as steps (:func:`from_function`); :func:`height_function` turns a terrain into the callable
+``h(x)`` that the penalty and compliant grounds take.
 
 A terrain is a piecewise-constant step profile plus a constant grade:
 ``ground(x) = heights[floor((x - x0) / step_len)] + grade * x`` (x in m). ``heights[0]`` is the
@@ -11,13 +13,14 @@ trial starts alike. Terrains of one batch share the array length so they stack (
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree
 
-class Terrain(NamedTuple):
+
+@pytree
+class Terrain:
     """heights: (n,) level of each step (m); step_len (m); x0: where step 0 ends (m);
     grade: slope (rise / run)."""
 
@@ -25,6 +28,10 @@ class Terrain(NamedTuple):
     step_len: float
     x0: float
     grade: float
+
+    def __call__(self, x):
+        """Ground height (m) below x (m): a terrain is a height function."""
+        return ground(self, x)
 
 
 def ground(terr: Terrain, x):
@@ -62,10 +69,29 @@ def rough(rng: np.random.Generator, max_step: float, length: float = 60.0, step_
 
 def slope(grade_percent: float, length: float = 60.0, step_len: float = 3.0) -> Terrain:
     t = flat(length, step_len)
-    return t._replace(grade=grade_percent / 100.0)
+    return t.replace(grade=grade_percent / 100.0)
 
 
 def stack(terrains) -> Terrain:
     """Batch terrains of equal array length (a leading trial axis on heights)."""
     t0 = terrains[0]
     return Terrain(jnp.stack([t.heights for t in terrains]), t0.step_len, t0.x0, t0.grade)
+
+
+def steps(heights, step_len: float = 3.0, x0: float = 3.0, grade: float = 0.0) -> Terrain:
+    """Given step levels (m): level heights[0] up to x0, then heights[k] on
+    [x0 + (k - 1) step_len, x0 + k step_len), plus the grade."""
+    return Terrain(jnp.asarray(heights, dtype=float), float(step_len), float(x0), float(grade))
+
+
+def from_function(h, length: float = 60.0, step_len: float = 0.05, x0: float = 0.0) -> Terrain:
+    """Any height function h(x) (m), sampled as steps of ``step_len`` (at each step's centre)."""
+    n = int(np.ceil(length / step_len)) + 2
+    xs = x0 + (np.arange(n) - 0.5) * step_len
+    return steps(np.asarray([h(x) for x in xs], dtype=float), step_len, x0)
+
+
+def height_function(terr: Terrain):
+    """The terrain as a traceable callable x -> height (m), e.g. for
+    :mod:`bipedlab.contact.penalty` and :mod:`bipedlab.contact.compliant`."""
+    return lambda x: ground(terr, x)

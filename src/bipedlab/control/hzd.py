@@ -133,8 +133,43 @@ def closed_loop_flow(vc: VirtualConstraints, st: Stance, control: Callable):
     return f
 
 
+# ------------------------------------------------------------------ pieces on given terms
+# For models written as D qdd + H = B u (a robot's own reduced stance dynamics) and outputs
+# y = H0 q - h_d(theta) with a linear phase theta = c . q, the Lie derivatives follow from the
+# output's Jacobian and curvature without differentiating the dynamics again.
+
+
+def linear_phase_output_jacobian(H0, c, dh):
+    """dy/dq (m, n) of y = H0 q - h_d(c . q), given dh_d/dtheta (m,)."""
+    return H0 - dh[:, None] * c[None, :]
+
+
+def affine_decoupling(Jy, curvature, D, H, B):
+    """(LgLfh (m, nu), Lf2h (m,)) of outputs with Jacobian Jy (m, n) and curvature
+    ``d(Jy)/dt qd`` (m,) along ``D qdd + H = B u``: ydd = Lf2h + LgLfh u."""
+    nu = B.shape[1]
+    DiB = jnp.linalg.solve(D, jnp.concatenate([B, H[:, None]], 1))
+    return Jy @ DiB[:, :nu], -Jy @ DiB[:, nu] + curvature
+
+
+def outer_loop(y, yd, eps, kp, kd):
+    """The linear outer loop of eq. 42: v = -(kp/eps^2) y - (kd/eps) yd."""
+    return -(kp / eps**2) * y - (kd / eps) * yd
+
+
+def linearizing_input(LgLf, Lf2h, v):
+    """The input giving ydd = v: u = LgLfh^-1 (v - Lf2h)."""
+    return jnp.linalg.solve(LgLf, v - Lf2h)
+
+
+def feedforward_input(LgLf, Lf2h):
+    """u* of eq. 32 from given terms: LgLfh^-1 (-Lf2h)."""
+    return jnp.linalg.solve(LgLf, -Lf2h)
+
+
 __all__ = [
     "VirtualConstraints", "phase", "desired", "output", "lie_derivatives", "output_state",
     "decoupling", "u_star", "io_linearizing", "pd_control", "lift", "zero_dynamics",
-    "closed_loop_flow", "ground_reaction",
+    "closed_loop_flow", "ground_reaction", "linear_phase_output_jacobian", "affine_decoupling", "outer_loop",
+    "linearizing_input", "feedforward_input",
 ]

@@ -20,16 +20,19 @@ over the sampled range and is held constant outside it.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree
+from bipedlab.sim.events import linear_crossing
+from bipedlab.sim.integrators import rk4
+
 G = 9.81
 
 
-class SlipParams(NamedTuple):
+@pytree
+class SlipParams:
     """m: mass (kg); k0: leg stiffness (N/m); l0: leg rest length (m); g (m/s^2)."""
 
     m: float = 60.0
@@ -38,7 +41,8 @@ class SlipParams(NamedTuple):
     g: float = G
 
 
-class Gait(NamedTuple):
+@pytree
+class Gait:
     """Target apex height (m, above the ground of the next stance) and forward speed (m/s)."""
 
     y_apex: float = 1.05
@@ -66,20 +70,12 @@ def stance_flow(p: SlipParams, s):
     return jnp.concatenate([s[2:], acc])
 
 
-def _rk4(f, s, h):
-    k1 = f(s)
-    k2 = f(s + 0.5 * h * k1)
-    k3 = f(s + 0.5 * h * k2)
-    k4 = f(s + h * k3)
-    return s + h / 6.0 * (k1 + 2 * k2 + 2 * k3 + k4)
-
-
 def stance(p: SlipParams, s_td, dt: float = 1e-4, max_steps: int = 20000):
     """Integrate stance from touchdown state s_td (relative to the foot) until the leg is
     back at rest length while extending (RK4, the crossing linearly interpolated). Returns
     (lift-off state, stance time, ok) where ok is False when the mass hit the ground or the
     stance did not end."""
-    f = lambda s: stance_flow(p, s)
+    f = lambda s, _: stance_flow(p, s)  # noqa: E731
 
     def cond(c):
         s, _, k, done = c
@@ -87,14 +83,14 @@ def stance(p: SlipParams, s_td, dt: float = 1e-4, max_steps: int = 20000):
 
     def body(c):
         s, _, k, _ = c
-        sn = _rk4(f, s, dt)
+        sn = rk4(f, s, None, dt)
         ln = jnp.linalg.norm(sn[:2])
         out = (ln >= p.l0) & (jnp.dot(sn[:2], sn[2:]) > 0) | (sn[1] <= 0.0)
         return sn, s, k + 1, out
 
     s, sp, k, done = jax.lax.while_loop(cond, body, (s_td, s_td, 0, False))
     lp, ln = jnp.linalg.norm(sp[:2]), jnp.linalg.norm(s[:2])
-    frac = jnp.clip((p.l0 - lp) / jnp.where(ln - lp == 0, 1.0, ln - lp), 0.0, 1.0)
+    frac = linear_crossing(lp, ln, p.l0)
     s_lo = sp + frac * (s - sp)
     ok = done & (s[1] > 0.0)
     return s_lo, (k - 1 + frac) * dt, ok
@@ -148,7 +144,8 @@ def deadbeat_angle(p: SlipParams, gait: Gait, y_i: float, lo=np.deg2rad(40.0), h
     return float("nan")
 
 
-class SwingPolicy(NamedTuple):
+@pytree
+class SwingPolicy:
     """a*(t) as a polynomial in time since apex, valid on [t_min, t_max] and held outside.
     coeffs: highest power first (numpy.polyval order)."""
 

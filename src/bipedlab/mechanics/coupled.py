@@ -1,6 +1,6 @@
 """A tree driven through a linear transmission: coordinates that are not joint angles.
 
-Robots such as MABEL are described by coordinates that are not the joints of any kinematic
+Some robots (a cable-differential drivetrain, for one) are described by coordinates that are not the joints of any kinematic
 tree: the thigh and shin angles are sums and differences of a leg angle and a leg shape, and
 motor angles drive pulleys but no link. A :class:`Coupled` model holds
 

@@ -84,3 +84,4 @@ def rk4_t_scan(f: Callable, t, x, h):
 
     (xn, _), auxs = jax.lax.scan(stage, (x, jnp.zeros_like(x)), coeffs)
     return xn, jax.tree_util.tree_map(lambda a: a[0], auxs)
+

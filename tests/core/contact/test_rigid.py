@@ -100,7 +100,7 @@ def test_constraint_forces_keep_a_supported_foot_fixed(robot):
         np.testing.assert_allclose(J[k] @ qdd + Jd[k], 0.0, atol=1e-10)
     assert abs(float(sl.joint_rates(qdd)[1])) < 1e-10
     # integrate 0.2 s with the projection: the foot stays where it was to far below 1e-8 m
-    step = jax.jit(lambda x: sc.project(robot, sc.rk4(robot, x, u, active, 1e-3), active, anchors)[0])
+    step = jax.jit(lambda x: sc.project(robot, sc.step(robot, x, u, active, 1e-3), active, anchors)[0])
     P0 = np.asarray(P[:2])
     xs = x
     for _ in range(200):

@@ -4,6 +4,7 @@ import numpy as np
 import pytest
 
 from bipedlab.control import slip
+from bipedlab.sim.integrators import rk4
 
 P = slip.SlipParams(m=59.0)
 GAIT = slip.Gait(1.05, 5.0)
@@ -19,7 +20,7 @@ def test_stance_conserves_energy_including_the_spring():
     # integrate by hand and check the energy (kinetic + gravity + spring) at every step
     s, es = s_td, []
     for _ in range(800):
-        s = slip._rk4(lambda x: slip.stance_flow(P, x), s, 1e-4)
+        s = rk4(lambda x, _: slip.stance_flow(P, x), s, None, 1e-4)
         es.append(float(slip.energy(P, s[:2], s[2:], foot)))
     assert max(abs(e - e0) for e in es) < 1e-6 * e0
     s_lo, t_st, ok = slip.stance(P, s_td)

@@ -96,14 +96,14 @@ def test_system_com_matches_the_plant_and_flight_predictor_is_ballistic():
     from bipedlab.robots.atrias import robot as at
     from bipedlab.robots.atrias import loop as ar
     rp = at.AtriasParams()
-    mp = MP._replace(m_f=rp.m_f)
+    mp = MP.replace(m_f=rp.m_f)
     rng = np.random.default_rng(0)
     q = jnp.array([0.3, 1.0, 0.2, np.pi - 0.4, np.pi + 0.5, 0.9, 0.6])
     qd = jnp.asarray(rng.standard_normal(7))
     for a, b in zip(rm.system_com(mp, q, qd), ar.system_com(rp, q, qd)):
         np.testing.assert_allclose(np.asarray(a), np.asarray(b), atol=1e-12)
     _, cp, _, _ = ra.build(ra.Settings())
-    cp = cp._replace(delay=0.01)
+    cp = cp.replace(delay=0.01)
     qp, qdp = rc.predict_flight(cp, q, qd)
     assert float(qp[1]) == pytest.approx(float(q[1] + 0.01 * qd[1] - 0.5 * 9.81 * 1e-4))
     assert float(qdp[1]) == pytest.approx(float(qd[1] - 9.81 * 0.01))

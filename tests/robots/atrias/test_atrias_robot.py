@@ -34,11 +34,11 @@ def test_mass_matrix_spd_and_solver():
     np.testing.assert_allclose(M, M.T, atol=1e-14)
     assert np.linalg.eigvalsh(M).min() > 0
     b = rng.standard_normal(7)
-    np.testing.assert_allclose(at.spd_solve(jnp.asarray(M), jnp.asarray(b)), np.linalg.solve(M, b), rtol=1e-10)
+    np.testing.assert_allclose(at.solve(jnp.asarray(M), jnp.asarray(b)), np.linalg.solve(M, b), rtol=1e-10)
 
 
 def _flow(q, qd, u):
-    return at.spd_solve(at.mass_matrix(P, q), at.free_forces(P, q, qd, u))
+    return at.solve(at.mass_matrix(P, q), at.free_forces(P, q, qd, u))
 
 
 def _rk4(q, qd, u, h, n):

@@ -25,7 +25,7 @@ def test_hops_with_the_torso_update(updated):
     assert not s["fell"] and s["hops_completed"] == 12
     assert 0.4 < s["mean_hop_period_s"] < 0.8
     assert s["hop_period_sd_s"] < 0.1
-    y = updated.x[:, hm._I["y"]]
+    y = updated.x[:, hm.INDEX["y"]]
     assert y.max() - y.min() > 0.05
 
 
@@ -45,7 +45,7 @@ def test_springs_compress_in_stance_and_rest_at_the_stop_in_flight(updated):
     (q_Bsp ~ 0) in the air, and never driven deep into the stop."""
     ph = updated.phase
     for s in tb.SIDES:
-        bsp = updated.x[:, hm._I[f"bsp_{s}"]]
+        bsp = updated.x[:, hm.INDEX[f"bsp_{s}"]]
         assert bsp[ph == hm.hop.TOUCHDOWN].max() > 0.1
         assert np.abs(bsp[ph == hm.hop.FLIGHT]).min() < 1e-2
         assert bsp.min() > -0.02

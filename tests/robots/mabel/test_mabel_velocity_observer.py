@@ -2,8 +2,6 @@
 backward difference, on an exactly integrated 1 ms period of the stance dynamics."""
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -35,9 +33,8 @@ def period():
 
 
 def _estimate(m, setup, z0, z1, u):
-    s = sw.initial_state(setup, z0)
-    s = dataclasses.replace(s, q_prev=z0[:6], v_est=z0[6:], u_prev=u)
-    return np.asarray(jax.jit(lambda s, q: sw._rate_estimate(m, setup, s, q))(s, z1[:6]))
+    c = sw.initial_state(setup, z0).ctrl.replace(q_prev=z0[:6], v_est=z0[6:], u_prev=u)
+    return np.asarray(jax.jit(lambda c, q: sw._rate_estimate(m, setup, c, q))(c, z1[:6]))
 
 
 def test_observer_tracks_the_velocity_to_second_order_where_the_difference_lags(period):

@@ -163,7 +163,7 @@ def test_energy_conserved_in_unactuated_undamped_flight():
     qd = jnp.array([0.4, 0.5, 1.0, -2.0, 3.0, 1.0, 2.0, -1.0, 4.0])
     x0 = jnp.concatenate([q, qd])
     none = jnp.zeros(6, bool)
-    step = jax.jit(lambda x, h: sc.rk4(r, x, jnp.zeros(6), none, h))
+    step = jax.jit(lambda x, h: sc.step(r, x, jnp.zeros(6), none, h))
 
     def drift(h, T=0.25):
         x = x0

@@ -62,19 +62,19 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.robots.atrias import controller_model as rm
 from bipedlab.control import slip
+from bipedlab.pytree import pytree
 
 FLIGHT, SLIDING, STANCE = 0, 1, 2
 
 
-class CtrlParams(NamedTuple):
+@pytree
+class CtrlParams:
     mp: rm.ModelParams
     smm: slip.SlipParams          # k0 here is the stiffness the stance control realises
     policy: slip.SwingPolicy
@@ -111,7 +111,8 @@ class CtrlParams(NamedTuple):
     leg_zeta: float = 0.7
 
 
-class CtrlState(NamedTuple):
+@pytree
+class CtrlState:
     mode: jax.Array       # FLIGHT / SLIDING / STANCE
     leg: jax.Array        # index of the stance (or landing) leg
     dE: jax.Array         # energy error measured at the last lift-off (J)
@@ -125,7 +126,8 @@ class CtrlState(NamedTuple):
     a_trim: jax.Array     # integral landing-angle trim (rad), see :func:`control`
 
 
-class Meas(NamedTuple):
+@pytree
+class Meas:
     q: jax.Array          # (7,) sensed coordinates
     qd: jax.Array         # (7,)
     contact: jax.Array    # (2,) foot contact switches
@@ -146,7 +148,7 @@ def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPoli
     A, B = rm.flight_reduced_system(mp.I_t, mp.I_m)
     K = rm.lqr_gain(A, B, np.diag(Q), np.diag(R))
     c = energy_gain / _nominal_work_integral(smm, y_apex, speed)
-    smm_applied = smm._replace(k0=smm.k0 * stiffness_scale)
+    smm_applied = smm.replace(k0=smm.k0 * stiffness_scale)
     return CtrlParams(mp, smm_applied, policy, y_apex, speed, float(theta_star), jnp.asarray(K), tau_max,
                       bool(regulation), float(c))
 
@@ -345,7 +347,7 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     compressed = jnp.where(to_slide, False, cs.compressed | ((mode != FLIGHT) & (lv_td < cs.l_rest - cp.c_min)))
     n_stance = jnp.where(to_slide, 0, cs.n_stance + (mode != FLIGHT).astype(cs.n_stance.dtype))
     y_td = jnp.where(to_slide, foot_ya, cs.y_td)
-    cs = cs._replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td)
+    cs = cs.replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td)
     st = stance_command(cp, cs, q, qd)
     u_st, F_st, lv, lvd, _ = st
     J = rm.jac6(cp.mp, q[:6])

@@ -9,14 +9,15 @@ and the stance dynamics are eq. (3): M6 = diag(m, m, I_t, I_m, I_m, 0).
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax.numpy as jnp
 import numpy as np
 import scipy.linalg
 
+from bipedlab.pytree import pytree
 
-class ModelParams(NamedTuple):
+
+@pytree
+class ModelParams:
     """What the controller believes (scaled by the model-error draws)."""
 
     m: float

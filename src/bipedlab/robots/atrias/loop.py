@@ -18,7 +18,7 @@ of samples; the caller loops over chunks (progress bar) re-using it.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -26,7 +26,9 @@ import numpy as np
 
 from bipedlab.robots.atrias import controller as rc
 from bipedlab.robots.atrias import robot as at
+from bipedlab.contact import stick_slip as ss
 from bipedlab.contact import terrain as tr
+from bipedlab.pytree import pytree
 
 DT = 2e-4
 SUBSTEPS = 5
@@ -39,7 +41,8 @@ NOISE_AMP = np.array([0.03, 0.03, np.deg2rad(3), np.deg2rad(3), np.deg2rad(3), 0
                       0.03, 0.03, np.deg2rad(3), np.deg2rad(3), np.deg2rad(3), 0.03, 0.03])
 
 
-class RunConfig(NamedTuple):
+@dataclasses.dataclass(frozen=True)
+class RunConfig:
     """Static settings: noise on/off, delay in samples, whether to log every sample,
     integration step and steps per sample."""
 
@@ -50,7 +53,8 @@ class RunConfig(NamedTuple):
     substeps: int = SUBSTEPS
 
 
-class Carry(NamedTuple):
+@pytree
+class Carry:
     s: at.SimState
     cs: rc.CtrlState
     buf: jax.Array          # (delay + 1, 16) measurement buffer
@@ -165,9 +169,7 @@ def _grf_of(rp, gp, terr, s):
     for i in range(2):
         pf = at.foot(rp, s.q, i)
         vf = at.foot_jac(rp, s.q, i) @ s.qd
-        pen = tr.ground(terr, pf[0]) - pf[1]
-        fy = jnp.where(pen > 0, gp.k_y * pen * (1 - vf[1] / gp.v_max), 0.0)
-        out.append(jnp.stack([0.0, jnp.maximum(fy, 0.0)]))
+        out.append(jnp.stack([0.0, ss.normal_force(gp, terr, pf, vf)]))
     return jnp.stack(out)
 
 

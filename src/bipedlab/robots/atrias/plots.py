@@ -1,18 +1,14 @@
-"""Figures of the running study (like the running paper's Figs. 5, 7 and 8), matplotlib Agg."""
+"""Figures of the running study (like the running paper's Figs. 5, 7 and 8), through
+:mod:`bipedlab.viz.figures`. No stick-figure frames yet: a ``segments`` function over the
+robot's trunk and leg points (robot.py) would feed :mod:`bipedlab.viz.animation` with the
+terrain as its ground polyline."""
 from __future__ import annotations
 
 import os
 
 import numpy as np
 
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from bipedlab.viz import figures
 
 
 def write_all(out_dir, out, sr, cp, gait) -> list:
@@ -26,8 +22,7 @@ def write_all(out_dir, out, sr, cp, gait) -> list:
 
 def apex_figure(path, out, sr, gait):
     """Fig. 8: bounce heights and apex speeds of the robot and of the spring-mass model."""
-    plt = _plt()
-    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex="col")
+    fig, ax = figures.subplots(2, 2, figsize=(10, 6), sharex="col")
     k = int(min(out["n_apex"][0], len(out["bounce"][0])))
     x = out["apex_x"][0, :k]
     ax[0, 0].plot(x, out["apex_y"][0, :k], "k-", lw=1, label="global apex height")
@@ -48,22 +43,19 @@ def apex_figure(path, out, sr, gait):
     ax[1, 0].set_xlabel("x (m)")
     ax[1, 1].set_xlabel("x (m)")
     ax[0, 0].legend(fontsize=8)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    figures.save(fig, path)
     return path
 
 
 def time_figure(path, log, cp, t_max=2.0):
     """Fig. 7: apex height, speed, trunk pitch, landing angle, mean hip angle, momentum,
     hip torques over the first seconds; stance shaded."""
-    plt = _plt()
     t = log["t"][0]
     sel = t <= t_max
     t = t[sel]
     q, qd = log["q"][0][sel], log["qd"][0][sel]
     mode, leg = log["mode"][0][sel], log["leg"][0][sel]
-    fig, ax = plt.subplots(6, 1, figsize=(9, 12), sharex=True)
+    fig, ax = figures.subplots(6, 1, figsize=(9, 12), sharex=True)
     ax[0].plot(t, q[:, 1], "k")
     ax[0].set_ylabel("trunk y (m)")
     ax[1].plot(t, qd[:, 0], "k")
@@ -92,9 +84,7 @@ def time_figure(path, log, cp, t_max=2.0):
     ax[5].set_xlabel("t (s)")
     for a in ax:
         _shade(a, t, mode)
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    figures.save(fig, path)
     return path
 
 
@@ -110,11 +100,10 @@ def _shade(ax, t, mode):
 
 def grf_figure(path, log):
     """Fig. 5: simulated GRFs of the first stance."""
-    plt = _plt()
     t = log["t"][0]
     grf = log["grf"][0]
     on = np.nonzero(grf[:, :, 1].sum(axis=1) > 0)[0]
-    fig, ax = plt.subplots(2, 1, figsize=(7, 5), sharex=True)
+    fig, ax = figures.subplots(2, 1, figsize=(7, 5), sharex=True)
     if on.size:
         k0 = on[0]
         k1 = k0 + np.argmax(grf[k0:, :, 1].sum(axis=1) == 0) if np.any(grf[k0:, :, 1].sum(axis=1) == 0) else len(t)
@@ -126,7 +115,5 @@ def grf_figure(path, log):
     ax[0].set_ylabel("F_y (N)")
     ax[1].set_ylabel("F_x (N)")
     ax[1].set_xlabel("t (s)")
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
+    figures.save(fig, path)
     return path

@@ -32,19 +32,26 @@ sliding friction -mu_slide GRF_y sgn(x_f') (0.8), back to stiction below 0.01 m/
 """
 from __future__ import annotations
 
-from typing import NamedTuple
+import functools
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
-from bipedlab.contact import terrain as tr
+from bipedlab.contact import stick_slip as ss
+from bipedlab.contact import terrain as tr  # noqa: F401  (the terrain type of the ground)
+from bipedlab.mechanics import dynamics as dyn
+from bipedlab.mechanics import kinematics as kin
+from bipedlab.mechanics.tree import PRISMATIC, Body, Model, Point, build_model
+from bipedlab.pytree import pytree
 
 G = 9.81
 NQ = 7
 IX, IY, ITH, IG1, IG2, IL1, IL2 = range(7)
 
 
-class AtriasParams(NamedTuple):
+@pytree
+class AtriasParams:
     m: float = 59.0          # trunk mass (kg)
     I_t: float = 1.37        # trunk inertia about its COM (kg m^2)
     d: float = 0.1           # COM above the hip (m)
@@ -58,13 +65,8 @@ class AtriasParams(NamedTuple):
         return self.m + 2 * self.m_f
 
 
-class GroundParams(NamedTuple):
-    k_y: float       # vertical stiffness (N/m)
-    k_x: float       # horizontal stiction stiffness (N/m)
-    v_max: float = 0.03
-    mu_slide: float = 0.8
-    mu_stick: float = 0.9
-    v_stick: float = 0.01
+#: The ground's parameters (the core's stick/slip point contact).
+GroundParams = ss.StickSlipGround
 
 
 def ground_params(p: AtriasParams) -> GroundParams:
@@ -72,7 +74,8 @@ def ground_params(p: AtriasParams) -> GroundParams:
     return GroundParams(k_y=w / 0.01, k_x=w / 0.1)
 
 
-class SimState(NamedTuple):
+@pytree
+class SimState:
     """q, qd (7,); anchor (2,): stiction anchor x of each foot (m); stick (2,): 1 = stiction."""
 
     q: jax.Array
@@ -81,41 +84,65 @@ class SimState(NamedTuple):
     stick: jax.Array
 
 
+# ---------------------------------------------------------------- the tree model
+# bipedlab.mechanics trees use counter-clockwise angles and joint angles relative to the
+# parent; the robot's coordinates use clockwise absolute angles. The tree's coordinates are
+# z = T q: (x, y, phi = -theta, r_i = theta - gamma_i (leg relative to trunk), l_i). Bodies:
+# the trunk (m, I_t) at its COM, a massless leg link per hip carrying the hip inertia I_m
+# (turning with the absolute leg angle), and the foot point mass m_f sliding along the leg.
+_T = np.array([[1, 0, 0, 0, 0, 0, 0],
+               [0, 1, 0, 0, 0, 0, 0],
+               [0, 0, -1, 0, 0, 0, 0],
+               [0, 0, 1, -1, 0, 0, 0],
+               [0, 0, 1, 0, -1, 0, 0],
+               [0, 0, 0, 0, 0, 1, 0],
+               [0, 0, 0, 0, 0, 0, 1]], dtype=float)
+FOOT_POINTS = ("foot_1", "foot_2")
+
+
+@functools.lru_cache(maxsize=16)
+def _tree(m, I_t, d, I_m, m_f, g) -> Model:
+    bodies = [Body("trunk", None, m, (0.0, 0.0), I_t),
+              Body("leg_1", "trunk", 0.0, (0.0, 0.0), I_m, offset=(0.0, -d)),
+              Body("leg_2", "trunk", 0.0, (0.0, 0.0), I_m, offset=(0.0, -d)),
+              Body("l_1", "leg_1", m_f, (0.0, 0.0), 0.0, joint=PRISMATIC, axis=(0.0, 1.0)),
+              Body("l_2", "leg_2", m_f, (0.0, 0.0), 0.0, joint=PRISMATIC, axis=(0.0, 1.0))]
+    points = [Point("foot_1", "l_1", (0.0, 0.0)), Point("foot_2", "l_2", (0.0, 0.0)),
+              Point("hip", "trunk", (0.0, -d))]
+    return build_model(bodies, points, actuated=(), gravity=g, base_names=("x", "y", "phi"))
+
+
+def tree_model(p) -> Model:
+    """The robot as a :class:`bipedlab.mechanics.Model`, in the tree coordinates z = T q."""
+    return _tree(float(p.m), float(p.I_t), float(p.d), float(p.I_m), float(p.m_f), float(p.g))
+
+
+def to_tree(q):
+    """Tree coordinates z = T q (also for velocities: T is constant)."""
+    return jnp.asarray(_T) @ q
+
+
 def hip(p, q):
-    return jnp.stack([q[IX] - p.d * jnp.sin(q[ITH]), q[IY] - p.d * jnp.cos(q[ITH])])
+    return kin.point_position(tree_model(p), to_tree(q), "hip")
 
 
 def foot(p, q, i):
-    g, l = q[IG1 + i], q[IL1 + i]
-    return hip(p, q) + l * jnp.stack([jnp.sin(g), jnp.cos(g)])
+    return kin.point_position(tree_model(p), to_tree(q), FOOT_POINTS[i])
 
 
 def foot_jac(p, q, i):
     """2x7 Jacobian of foot i (the paper's eq. 4 with the leg coordinates of leg i)."""
-    th, g, l = q[ITH], q[IG1 + i], q[IL1 + i]
-    J = jnp.zeros((2, NQ))
-    J = J.at[0, IX].set(1.0).at[1, IY].set(1.0)
-    J = J.at[0, ITH].set(-p.d * jnp.cos(th)).at[1, ITH].set(p.d * jnp.sin(th))
-    J = J.at[0, IG1 + i].set(l * jnp.cos(g)).at[1, IG1 + i].set(-l * jnp.sin(g))
-    J = J.at[0, IL1 + i].set(jnp.sin(g)).at[1, IL1 + i].set(jnp.cos(g))
-    return J
+    return kin.point_jacobian(tree_model(p), to_tree(q), FOOT_POINTS[i]) @ jnp.asarray(_T)
 
 
 def foot_bias(p, q, qd, i):
     """Jdot qd of foot i (foot acceleration at zero generalised acceleration)."""
-    th, g, l = q[ITH], q[IG1 + i], q[IL1 + i]
-    thd, gd, ld = qd[ITH], qd[IG1 + i], qd[IL1 + i]
-    ax = p.d * jnp.sin(th) * thd ** 2 + 2 * ld * jnp.cos(g) * gd - l * jnp.sin(g) * gd ** 2
-    ay = p.d * jnp.cos(th) * thd ** 2 - 2 * ld * jnp.sin(g) * gd - l * jnp.cos(g) * gd ** 2
-    return jnp.stack([ax, ay])
+    return kin.point_jdot_qd(tree_model(p), to_tree(q), to_tree(qd), FOOT_POINTS[i])
 
 
 def mass_matrix(p, q):
-    M = jnp.diag(jnp.array([p.m, p.m, p.I_t, p.I_m, p.I_m, 0.0, 0.0]))
-    for i in range(2):
-        J = foot_jac(p, q, i)
-        M = M + p.m_f * J.T @ J
-    return M
+    T = jnp.asarray(_T)
+    return T.T @ dyn.mass_matrix(tree_model(p), to_tree(q)) @ T
 
 
 def input_matrix():
@@ -125,14 +152,15 @@ def input_matrix():
     return S.at[IL1, 2].set(1.0).at[IL2, 3].set(1.0)
 
 
+def bias(p, q, qd):
+    """Bias h(q, qd) (Coriolis, centrifugal, gravity) in the robot's coordinates: T^T h_tree."""
+    return jnp.asarray(_T).T @ dyn.bias(tree_model(p), to_tree(q), to_tree(qd))
+
+
 def free_forces(p, q, qd, u):
-    """Generalised forces other than the ground's: inputs, gravity, foot inertial bias."""
-    f = input_matrix() @ u
-    f = f.at[IY].add(-p.m * p.g)
-    for i in range(2):
-        J = foot_jac(p, q, i)
-        f = f - p.m_f * J.T @ (foot_bias(p, q, qd, i) + jnp.array([0.0, p.g]))
-    return f
+    """Generalised forces other than the ground's: inputs minus the bias (gravity, foot
+    inertial terms)."""
+    return input_matrix() @ u - bias(p, q, qd)
 
 
 def energy(p, q, qd):
@@ -147,24 +175,13 @@ def angular_momentum(p, q, qd):
     return p.I_t * qd[ITH] + p.I_m * (qd[IG1] + qd[IG2])
 
 
-def spd_solve(A, b):
-    """Solve A x = b for a small symmetric positive definite A by an unrolled Cholesky
-    factorisation (elementwise ops only: much faster than a LAPACK call per matrix when
+def solve(A, b):
+    """Solve A x = b for the symmetric positive definite 7x7 A with the core's unrolled
+    L^T D L factorisation (elementwise ops: much faster than a LAPACK call per matrix when
     batched on CPU)."""
     n = A.shape[0]
-    L = [[None] * n for _ in range(n)]
-    for j in range(n):
-        s = A[j, j] - sum(L[j][k] * L[j][k] for k in range(j))
-        L[j][j] = jnp.sqrt(s)
-        for i in range(j + 1, n):
-            L[i][j] = (A[i, j] - sum(L[i][k] * L[j][k] for k in range(j))) / L[j][j]
-    y = []
-    for i in range(n):
-        y.append((b[i] - sum(L[i][k] * y[k] for k in range(i))) / L[i][i])
-    x = [None] * n
-    for i in reversed(range(n)):
-        x[i] = (y[i] - sum(L[k][i] * x[k] for k in range(i + 1, n))) / L[i][i]
-    return jnp.stack(x)
+    H = [[A[i, j] for j in range(i + 1)] for i in range(n)]
+    return jnp.stack(dyn.ltdl_solve(H, [b[i] for i in range(n)]))
 
 
 def clip_input(p, u):
@@ -175,19 +192,7 @@ def _contact_terms(p, gp, terr, s: SimState, i):
     """Explicit force F0 (2,), damping C (2,) so that F = F0 - C * v_foot, and contact flag."""
     pf = foot(p, s.q, i)
     vf = foot_jac(p, s.q, i) @ s.qd
-    pen = tr.ground(terr, pf[0]) - pf[1]
-    fy_expl = gp.k_y * pen * (1.0 - vf[1] / gp.v_max)
-    on = (pen > 0) & (fy_expl > 0)
-    fy0 = jnp.where(on, gp.k_y * pen, 0.0)
-    cy = jnp.where(on, gp.k_y * pen / gp.v_max, 0.0)
-    dx = pf[0] - s.anchor[i]
-    stick = s.stick[i] > 0.5
-    fx0_st = -gp.k_x * dx
-    cx_st = gp.k_x * jnp.abs(dx) / gp.v_max
-    fx_sl = -gp.mu_slide * jnp.maximum(fy_expl, 0.0) * jnp.sign(vf[0])
-    fx0 = jnp.where(on, jnp.where(stick, fx0_st, fx_sl), 0.0)
-    cx = jnp.where(on & stick, cx_st, 0.0)
-    return jnp.stack([fx0, fy0]), jnp.stack([cx, cy]), on
+    return ss.contact_terms(gp, terr, pf, vf, s.anchor[i], s.stick[i] > 0.5)
 
 
 def step(p: AtriasParams, gp: GroundParams, terr, s: SimState, u, h: float):
@@ -204,7 +209,7 @@ def step(p: AtriasParams, gp: GroundParams, terr, s: SimState, u, h: float):
         A = A + h * J.T @ (C[:, None] * J)
         f = f + J.T @ F0
         Js.append(J), F0s.append(F0), Cs.append(C), ons.append(on)
-    qd = spd_solve(A, M @ s.qd + h * f)
+    qd = solve(A, M @ s.qd + h * f)
     q = s.q + h * qd
     grf = jnp.stack([F0s[i] - Cs[i] * (Js[i] @ qd) for i in range(2)])
     grf = grf.at[:, 1].set(jnp.maximum(grf[:, 1], 0.0))
@@ -213,12 +218,7 @@ def step(p: AtriasParams, gp: GroundParams, terr, s: SimState, u, h: float):
     for i in range(2):
         pf = foot(p, q, i)
         vx = (foot_jac(p, q, i) @ qd)[0]
-        on = ons[i]
-        stick = s.stick[i] > 0.5
-        slip_now = stick & on & (jnp.abs(grf[i, 0]) > gp.mu_stick * grf[i, 1])
-        stick_now = ~stick & (jnp.abs(vx) < gp.v_stick)
-        new_stick = jnp.where(on, jnp.where(stick, ~slip_now, stick_now), True)
-        anchor = jnp.where(on & stick & ~slip_now, s.anchor[i], pf[0])
+        new_stick, anchor = ss.transition(gp, ons[i], s.stick[i] > 0.5, s.anchor[i], grf[i], pf[0], vx)
         anchors.append(anchor), sticks.append(new_stick.astype(q.dtype))
     return SimState(q, qd, jnp.stack(anchors), jnp.stack(sticks)), grf
 

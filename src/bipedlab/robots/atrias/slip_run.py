@@ -9,16 +9,17 @@ targets) and the forward speed at apex. Vmappable over terrains.
 """
 from __future__ import annotations
 
-from typing import NamedTuple
-
 import jax
 import jax.numpy as jnp
 
 from bipedlab.control import slip
 from bipedlab.contact import terrain as tr
+from bipedlab.pytree import pytree
+from bipedlab.sim.events import bisection, first_on_grid
 
 
-class SlipRun(NamedTuple):
+@pytree
+class SlipRun:
     """bounce (n,), speed (n,), apex_y (n,) global apex height, x (n,) apex position;
     steps_done: valid entries; fell: bool."""
 
@@ -44,17 +45,8 @@ def _touchdown_time(p, pol, terr, s, t_max=2.0, n=1000):
     g = jax.vmap(gap)(ts)
     # ignore the very start (the foot is at the ground at lift-off)
     below = (g <= 0.0) & (ts > 0.02)
-    k = jnp.argmax(below)
-    found = jnp.any(below)
-    lo, hi = ts[jnp.maximum(k - 1, 0)], ts[k]
-
-    def bis(_, c):
-        lo, hi = c
-        mid = 0.5 * (lo + hi)
-        m_below = gap(mid) <= 0
-        return jnp.where(m_below, lo, mid), jnp.where(m_below, mid, hi)
-
-    lo, hi = jax.lax.fori_loop(0, 40, bis, (lo, hi))
+    _, lo, hi, found = first_on_grid(below, ts)
+    lo, hi = bisection(lambda t: gap(t) <= 0, lo, hi, 40)
     return hi, found
 
 

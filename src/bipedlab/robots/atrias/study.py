@@ -16,7 +16,7 @@ import json
 import os
 import sys
 import time
-from typing import NamedTuple
+import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -35,7 +35,8 @@ SKIP_APEX = 2
 _CHUNKS: dict = {}  # compiled chunk functions, re-used across calls in one process
 
 
-class Settings(NamedTuple):
+@dataclasses.dataclass(frozen=True)
+class Settings:
     terrain: str = "flat"
     step_height: float = 0.25
     slope: float = 1.0
@@ -114,14 +115,14 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
     terr = make_terrains(st, n, length)
     cfg = ar.RunConfig(noise=st.noise, delay=int(round(st.delay_ms / (ar.CONTROL_DT * 1e3))), log=log,
                        dt=dt, substeps=int(round(ar.CONTROL_DT / dt)))
-    cp = cp._replace(delay=cfg.delay * ar.CONTROL_DT)  # the controller knows its sensing delay
+    cp = cp.replace(delay=cfg.delay * ar.CONTROL_DT)  # the controller knows its sensing delay
     c0 = ar.initial_carry(rp, cp, cfg)
     c = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n,) + jnp.shape(a)), c0)
     if theta0_offsets_deg is not None or st.theta0_offset_deg:
         off = np.deg2rad(np.broadcast_to(theta0_offsets_deg if theta0_offsets_deg is not None
                                          else st.theta0_offset_deg, (n,)))
         s = c.s
-        c = c._replace(s=s._replace(q=s.q.at[:, at.ITH].add(jnp.asarray(off))))
+        c = c.replace(s=s.replace(q=s.q.at[:, at.ITH].add(jnp.asarray(off))))
     keys = jax.random.split(jax.random.PRNGKey(st.seed), n)
     n_chunk = int(round(chunk_s / ar.CONTROL_DT))
     n_chunks = int(np.ceil(T / chunk_s))

@@ -33,7 +33,7 @@ the ``params`` pytree, so changing gains does not recompile. Status codes follow
 from __future__ import annotations
 
 import dataclasses
-from typing import Callable, NamedTuple
+from typing import Callable
 
 import jax
 import jax.numpy as jnp
@@ -41,6 +41,12 @@ import numpy as np
 
 from bipedlab.contact import rigid as aset
 from bipedlab.robots.seven_link import robot as sl
+from bipedlab.pytree import pytree
+from bipedlab.sim import events
+from bipedlab.sim.integrators import rk4
+from bipedlab.sim.loop import LoopState, SampledLoop
+from bipedlab.sim.loop import initial_state as loop_initial_state
+from bipedlab.sim.loop import simulate as loop_simulate
 from bipedlab.sim.rollout import FELL, NONFINITE, OK
 
 #: Status when the events of one sample do not resolve (more than 400 sub-steps).
@@ -67,16 +73,18 @@ _KNEE_ROWS[0] = -sl.JOINT_MAP[sl.KNEES[0]]
 _KNEE_ROWS[1] = -sl.JOINT_MAP[sl.KNEES[1]]
 
 
+#: The rows of each element (6,) in the row vector (10,): contact heights 0-3, knee stops 8-9.
+ELEMENT_ROWS = (slice(0, 4), slice(8, 10))
+
+
 def constraint_values(P, q, anchors) -> jax.Array:
     """g (10,): contact heights, contact x minus anchors, and -phi_knee."""
-    return jnp.concatenate([P[:, 1], P[:, 0] - anchors, jnp.asarray(_KNEE_ROWS) @ q])
+    return aset.point_constraint_values(P, anchors, _KNEE_ROWS, q)
 
 
 def constraint_jacobian(J, Jd):
     """(A (10, 9), Adot qd (10,))."""
-    A = jnp.concatenate([J[:, 1, :], J[:, 0, :], jnp.asarray(_KNEE_ROWS)])
-    ab = jnp.concatenate([Jd[:, 1], Jd[:, 0], jnp.zeros(2)])
-    return A, ab
+    return aset.point_constraint_jacobian(J, Jd, _KNEE_ROWS)
 
 
 def gaps(r: sl.SevenLink, q) -> jax.Array:
@@ -87,7 +95,7 @@ def gaps(r: sl.SevenLink, q) -> jax.Array:
 
 def element_forces(lam) -> jax.Array:
     """(6,) normal forces of the elements from the row multipliers (10,)."""
-    return jnp.concatenate([lam[:4], lam[8:]])
+    return aset.element_values(lam, ELEMENT_ROWS)
 
 
 # ----------------------------------------------------------------------------- dynamics
@@ -135,55 +143,36 @@ def impact(r: sl.SevenLink, x, active, new, iterations: int = 4, min_separation:
     q, qd = x[:9], x[9:]
     M, _, _, _, J, Jd = sl.dynamics_terms(r, q, qd)
     A, _ = constraint_jacobian(J, Jd)
-
-    def impulse_fn(a):
-        qdp, imp = aset.project_velocity(M, A, qd, row_mask(a))
-        return qdp, element_forces(imp), element_forces(A @ qdp)
-
-    qdp, imp, act = aset.impact(impulse_fn, active | new, new, iterations, min_separation)
+    qdp, imp, act = aset.plastic_impact(M, A, qd, active, new, row_mask, ELEMENT_ROWS, iterations, min_separation)
     return jnp.concatenate([q, qdp]), imp, act
+
+
+def _constraints(r: sl.SevenLink, anchors):
+    """constraint_fn(q, qd) -> (M, g, A) of the rigid-contact core."""
+    def fn(q, qd):
+        M, _, P, _, J, Jd = sl.dynamics_terms(r, q, qd)
+        A, _ = constraint_jacobian(J, Jd)
+        return M, constraint_values(P, q, anchors), A
+
+    return fn
 
 
 def project(r: sl.SevenLink, x, active, anchors, newton: int = 2):
     """(x projected onto the active constraints, residual (position, velocity) before)."""
-    mask = row_mask(active)
-    q, qd = x[:9], x[9:]
-    res0 = None
-    for k in range(newton):
-        M, _, P, V, J, Jd = sl.dynamics_terms(r, q, qd)
-        A, _ = constraint_jacobian(J, Jd)
-        g = constraint_values(P, q, anchors)
-        if k == 0:
-            res0 = (jnp.max(jnp.abs(g * mask)), jnp.max(jnp.abs((A @ qd) * mask)))
-        q = q + aset.project_position(M, A, g, mask)
-    M, _, P, V, J, Jd = sl.dynamics_terms(r, q, qd)
-    A, _ = constraint_jacobian(J, Jd)
-    qd, _ = aset.project_velocity(M, A, qd, mask)
+    q, qd, res0 = aset.project_state(_constraints(r, anchors), x[:9], x[9:], row_mask(active), newton)
     return jnp.concatenate([q, qd]), res0
 
 
 def residual(r: sl.SevenLink, x, active, anchors):
     """(max |g|, max |A qd|) over the active rows: the constraint drift of a state."""
     q, qd = x[:9], x[9:]
-    _, _, P, _, J, Jd = sl.dynamics_terms(r, q, qd)
-    A, _ = constraint_jacobian(J, Jd)
-    mask = row_mask(active)
-    return jnp.max(jnp.abs(constraint_values(P, q, anchors) * mask)), jnp.max(jnp.abs((A @ qd) * mask))
+    _, g, A = _constraints(r, anchors)(q, qd)
+    return aset.constraint_residual(g, A, qd, row_mask(active))
 
 
-def rk4(r, x, u, active, h):
-    """One RK4 step of :func:`flow`; the four stages share one traced evaluation (a scan)."""
-    c = jnp.array([0.0, 0.5, 0.5, 1.0])
-    w = jnp.array([1.0, 2.0, 2.0, 1.0]) / 6.0
-
-    def stage(carry, cw):
-        k_prev, acc = carry
-        ci, wi = cw
-        k = flow(r, x + (ci * h) * k_prev, u, active)
-        return (k, acc + wi * k), None
-
-    (_, acc), _ = jax.lax.scan(stage, (jnp.zeros_like(x), jnp.zeros_like(x)), (c, w))
-    return x + h * acc
+def step(r, x, u, active, h):
+    """One RK4 step (:func:`bipedlab.sim.integrators.rk4`) of :func:`flow` with the active set held."""
+    return rk4(lambda x, u: flow(r, x, u, active), x, u, h)
 
 
 # ----------------------------------------------------------------------------- simulation
@@ -219,7 +208,8 @@ class Settings:
         return self.n_samples // self.log_every + 1
 
 
-class SimResult(NamedTuple):
+@pytree
+class SimResult:
     """Outcome of :func:`simulate` (arrays; logs padded past ``n_log_used``).
 
     status, t_end, x_end, active_end, cstate_end (the controller state); touchdowns: count, times (steps+1,), foot (0/1),
@@ -277,159 +267,262 @@ def _friction_ratio(lam):
     return out
 
 
-def simulate(r: sl.SevenLink, policy: Callable, params, cstate0, x0, active0, settings: Settings = Settings(),
-             log_fn: Callable | None = None) -> SimResult:
-    """Run the closed loop from (x0, active0) (x0 is projected onto active0 first).
+@pytree
+class Plant:
+    """The plant state of the sampled loop (:func:`closed_loop`): time t (s), x (18,), active
+    elements (6,), no-slip anchors (4,) (m), sample index k, status, and the records of
+    :class:`SimResult` (touchdowns, work, drift, events, logs every ``log_every`` samples).
+    Entries of td_* and log_t past their counts hold 0 (NaN in :class:`SimResult`), and dke
+    the most negative float while no event happened (-inf in :class:`SimResult`): the loop's
+    finiteness check looks at every leaf."""
 
-    ``policy(params, cstate, t, x, active) -> (u (6,), cstate)`` is called once per sample;
-    ``log_fn(cstate) -> (k,)`` picks what of the controller state is logged."""
-    log_fn = log_fn or (lambda c: jnp.zeros(0))
-    nlog_c = jax.eval_shape(log_fn, cstate0).shape[0]
-    S = settings
-    h_int = S.sample / S.substeps
+    t: jax.Array
+    x: jax.Array
+    active: jax.Array
+    anchors: jax.Array
+    k: jax.Array
+    status: jax.Array
+    ntd: jax.Array
+    last_td: jax.Array
+    last_contact: jax.Array
+    td_time: jax.Array
+    td_foot: jax.Array
+    td_heel_x: jax.Array
+    td_hip_x: jax.Array
+    td_work: jax.Array
+    work_abs: jax.Array
+    work_pos: jax.Array
+    drift_before: jax.Array
+    drift_after: jax.Array
+    dke: jax.Array
+    events: jax.Array
+    releases: jax.Array
+    friction: jax.Array
+    el_rel: jax.Array
+    el_ev: jax.Array
+    n_log: jax.Array
+    log_t: jax.Array
+    log_x: jax.Array
+    log_u: jax.Array
+    log_active: jax.Array
+    log_ctrl: jax.Array
+    log_force: jax.Array
+
+
+_NO_EVENT = float(np.finfo(np.float64).min)
+
+
+def running(S: Settings, pl: Plant) -> jax.Array:
+    """Whether the walk goes on: no failure, time left, fewer than ``S.steps`` touchdowns."""
+    return (pl.status == OK) & (pl.k < S.n_samples) & (pl.ntd < S.steps)
+
+
+def initial_plant(r: sl.SevenLink, x0, active0, nlog_c: int, S: Settings) -> Plant:
+    """The plant at t = 0: x0 projected onto active0, anchors at the contact points' x."""
     n_td = S.steps + 2
     P0 = jnp.stack([sl.point_position(r, x0[:9], n) for n in sl.CONTACTS])
     anchors0 = P0[:, 0]
     x0, _ = project(r, jnp.asarray(x0, jnp.float64), active0, anchors0)
-    f64 = jnp.float64
-    zero = jnp.zeros((), f64)
+    zero = jnp.zeros((), jnp.float64)
+    nl = S.n_log
+    return Plant(t=zero, x=x0, active=jnp.asarray(active0), anchors=anchors0, k=jnp.asarray(0),
+                 status=jnp.asarray(OK), ntd=jnp.asarray(0, jnp.int32), last_td=zero,
+                 last_contact=jnp.where(jnp.stack([active0[0] | active0[1], active0[2] | active0[3]]), 0.0, -1.0),
+                 td_time=jnp.zeros(n_td), td_foot=jnp.full(n_td, -1), td_heel_x=jnp.zeros(n_td),
+                 td_hip_x=jnp.zeros(n_td), td_work=jnp.zeros((n_td, 2)),
+                 work_abs=jnp.zeros(6), work_pos=jnp.zeros(6), drift_before=jnp.zeros(2), drift_after=jnp.zeros(2),
+                 dke=jnp.full((), _NO_EVENT), events=jnp.asarray(0, jnp.int32), releases=jnp.asarray(0), friction=zero,
+                 el_rel=jnp.zeros(N_ELEMENTS, jnp.int32), el_ev=jnp.zeros(N_ELEMENTS, jnp.int32),
+                 n_log=jnp.asarray(0), log_t=jnp.zeros(nl), log_x=jnp.zeros((nl, 18)),
+                 log_u=jnp.zeros((nl, 6)), log_active=jnp.zeros((nl, N_ELEMENTS), bool),
+                 log_ctrl=jnp.zeros((nl, nlog_c)), log_force=jnp.zeros((nl, N_ELEMENTS)))
+
+
+def integrate(r: sl.SevenLink, S: Settings, t0, x, u, active, anchors, stats):
+    """One sample interval [t0, t0 + S.sample] under the held u, with event location and
+    impacts, all in one ``lax.while_loop``: RK4 sub-steps of ``S.sample / S.substeps`` (each
+    accepted one projected onto the active constraints); a sub-step that crosses a guard is
+    bisected (:func:`bipedlab.sim.events.bisection_step`, one halving per iteration, sharing
+    the iteration's RK4 step) to ``S.event_tol`` s, then the impact applies.
+    Returns (t_end, x, active, anchors, stats)."""
+    h_int = S.sample / S.substeps
+    t_end = t0 + S.sample
+    zero = jnp.zeros((), jnp.float64)
 
     def guard_hit(x, active):
         g = gaps(r, x[:9])
         return ~active & (g < -S.gap_tol)
 
-    # ----- inner loop: integrate one sample interval with event location and impacts
-    def integrate(t0, x, u, active, anchors, stats):
-        t_end = t0 + S.sample
-
-        def cond(c):
-            return ~c[-1] & (c[-2] < 400)
-
-        def body(c):
-            t, x, xh, active, anchors, stats, mode, lo, hi, it, done = c
-            rem = t_end - t
-            tau = jnp.where(mode == 0, jnp.minimum(rem, h_int), 0.5 * (lo + hi))
-            x1 = rk4(r, x, u, active, tau)
-            hit = guard_hit(x1, active)
-            any_hit = jnp.any(hit)
-            finite = jnp.all(jnp.isfinite(x1))
-            accept = (mode == 0) & ~any_hit
-            # bisection bracket [lo, hi]: no crossing at lo, a crossing at hi (state xh)
-            lo_n = jnp.where(mode == 0, 0.0, jnp.where(any_hit, lo, tau))
-            hi_n = jnp.where(any_hit, tau, hi)
-            xh = jnp.where(any_hit, x1, xh)
-            located = (mode == 1) & (hi_n - lo_n < S.event_tol)
-            new = guard_hit(xh, active)
-
-            def do_accept(_):
-                xp, res = project(r, x1, active, anchors)
-                return xp, jnp.stack(res)
-
-            xp, res = jax.lax.cond(accept & finite, do_accept, lambda _: (x, jnp.zeros(2)), None)
-
-            def do_event(_):
-                q = xh[:9]
-                P = jnp.stack([sl.point_position(r, q, n) for n in sl.CONTACTS])
-                anchors_n = jnp.where(new[:4], P[:, 0], anchors)
-                ke0 = sl.kinetic_energy(r, q, xh[9:])
-                xe, imp, act = impact(r, xh, active, new)
-                xe, _ = project(r, xe, act, anchors_n)
-                ke1 = sl.kinetic_energy(r, xe[:9], xe[9:])
-                return xe, act, anchors_n, ke1 - ke0
-
-            xe, act_e, anch_e, dke = jax.lax.cond(located & finite, do_event,
-                                                  lambda _: (x, active, anchors, zero), None)
-            st = dict(stats)
-            st["drift_before"] = jnp.where(accept, jnp.maximum(stats["drift_before"], res), stats["drift_before"])
-            st["dke"] = jnp.where(located, jnp.maximum(stats["dke"], dke), stats["dke"])
-            st["events"] = stats["events"] + located.astype(jnp.int32)
-            st["new"] = stats["new"] | (new & located)
-            st["nonfinite"] = stats["nonfinite"] | ~finite
-            t_n = jnp.where(accept, t + tau, jnp.where(located, t + hi_n, t))
-            x_n = jnp.where(accept, xp, jnp.where(located, xe, x))
-            act_n = jnp.where(located, act_e, active)
-            anch_n = jnp.where(located, anch_e, anchors)
-            mode_n = jnp.where(located | accept, 0, 1)
-            done = (accept & (t_end - t_n <= 1e-13)) | ~finite
-            return (t_n, x_n, xh, act_n, anch_n, st, mode_n, lo_n, hi_n, it + 1, done)
-
-        init = (t0, x, x, active, anchors, stats, jnp.asarray(0), zero, zero, jnp.asarray(0), jnp.asarray(False))
-        t, x, _, active, anchors, stats, *_, done = jax.lax.while_loop(cond, body, init)
-        stats = dict(stats, stuck=~done)
-        return t_end, x, active, anchors, stats
-
-    # ----- outer loop over control samples
     def cond(c):
-        return (c["status"] == OK) & (c["k"] < S.n_samples) & (c["ntd"] < S.steps)
+        return ~c[-1] & (c[-2] < 400)
 
     def body(c):
-        t, x, active, anchors = c["t"], c["x"], c["active"], c["anchors"]
-        u, cstate = policy(params, c["cstate"], t, x, active)
-        active, forces, released = release(r, x, u, active, force_tol=S.release_force_tol)
-        lam = constraint_forces(r, x, u, active)
-        stats = dict(drift_before=c["drift_before"], dke=c["dke"], events=c["events"],
-                     new=jnp.zeros(N_ELEMENTS, bool), nonfinite=jnp.asarray(False))
-        phid0 = sl.joint_rates(x[9:])
-        t1, x1, active1, anchors1, stats = integrate(t, x, u, active, anchors, stats)
-        phid1 = sl.joint_rates(x1[9:])
-        power = u * 0.5 * (phid0 + phid1)  # trapezoid over the sample (u held)
-        drift_after = jnp.maximum(c["drift_after"], jnp.stack(residual(r, x1, active1, anchors1)))
-        # touchdowns: a contact made by a foot that had been off the ground for min_flight
-        feet_before = jnp.stack([active[0] | active[1], active[2] | active[3]])
-        feet_after = jnp.stack([active1[0] | active1[1], active1[2] | active1[3]])
-        feet_new = jnp.stack([stats["new"][0] | stats["new"][1], stats["new"][2] | stats["new"][3]])
-        airborne = t - c["last_contact"] >= S.min_flight
-        td = feet_new & ~feet_before & airborne
-        last_contact = jnp.where(feet_before | feet_after | feet_new, t1, c["last_contact"])
-        ntd = c["ntd"]
-        rec = dict(c)
-        work_abs = c["work_abs"] + S.sample * jnp.abs(power)
-        work_pos = c["work_pos"] + S.sample * jnp.maximum(power, 0.0)
-        for f in range(2):
-            heel = sl.point_position(r, x1[:9], sl.CONTACTS[2 * f + 1])
-            i = jnp.minimum(ntd, n_td - 1)
-            rec["td_time"] = jnp.where(td[f], rec["td_time"].at[i].set(t1), rec["td_time"])
-            rec["td_foot"] = jnp.where(td[f], rec["td_foot"].at[i].set(f), rec["td_foot"])
-            rec["td_heel_x"] = jnp.where(td[f], rec["td_heel_x"].at[i].set(heel[0]), rec["td_heel_x"])
-            rec["td_hip_x"] = jnp.where(td[f], rec["td_hip_x"].at[i].set(x1[0]), rec["td_hip_x"])
-            rec["td_work"] = jnp.where(td[f], rec["td_work"].at[i].set(jnp.stack([jnp.sum(work_abs),
-                                                                                  jnp.sum(work_pos)])),
-                                       rec["td_work"])
-            ntd = ntd + td[f].astype(jnp.int32)
-        last_td = jnp.where(jnp.any(td), t1, c["last_td"])
-        stalled = (t1 - last_td) > S.max_step_time
-        fell = _fell(x1, S) | stalled
-        bad = stats["nonfinite"] | ~jnp.all(jnp.isfinite(x1))
-        status = jnp.where(bad, NONFINITE, jnp.where(stats["stuck"], STUCK, jnp.where(fell, FELL, OK)))
-        k = c["k"]
-        li = k // S.log_every
-        do_log = (k % S.log_every) == 0
-        for key, val in (("log_t", t), ("log_x", x), ("log_u", u), ("log_active", active),
-                         ("log_ctrl", log_fn(cstate)), ("log_force", forces)):
-            rec[key] = jnp.where(do_log, rec[key].at[li].set(val), rec[key])
-        rec.update(t=t1, x=jnp.where(bad, x, x1), active=active1, anchors=anchors1, cstate=cstate, k=k + 1,
-                   status=status, ntd=ntd, last_td=last_td, last_contact=last_contact, work_abs=work_abs, work_pos=work_pos,
-                   drift_before=stats["drift_before"], drift_after=drift_after, dke=stats["dke"],
-                   events=stats["events"], releases=c["releases"] + jnp.sum(released),
-                   el_rel=c["el_rel"] + released.astype(jnp.int32), el_ev=c["el_ev"] + stats["new"].astype(jnp.int32),
-                   friction=jnp.maximum(c["friction"], _friction_ratio(lam)),
-                   n_log=jnp.where(do_log, li + 1, c["n_log"]))
-        return rec
+        t, x, xh, active, anchors, stats, mode, lo, hi, it, done = c
+        rem = t_end - t
+        tau = jnp.where(mode == 0, jnp.minimum(rem, h_int), 0.5 * (lo + hi))
+        x1 = step(r, x, u, active, tau)
+        hit = guard_hit(x1, active)
+        any_hit = jnp.any(hit)
+        finite = jnp.all(jnp.isfinite(x1))
+        accept = (mode == 0) & ~any_hit
+        # bisection bracket [lo, hi]: no crossing at lo, a crossing at hi (state xh); a
+        # crossing in a full sub-step opens the bracket [0, tau]
+        b_lo, b_hi = events.bisection_step(any_hit, lo, hi, tau)
+        lo_n = jnp.where(mode == 0, 0.0, b_lo)
+        hi_n = jnp.where(mode == 0, jnp.where(any_hit, tau, hi), b_hi)
+        xh = jnp.where(any_hit, x1, xh)
+        located = (mode == 1) & (hi_n - lo_n < S.event_tol)
+        new = guard_hit(xh, active)
 
-    nl = S.n_log
-    init = dict(t=zero, x=x0, active=jnp.asarray(active0), anchors=anchors0, cstate=cstate0, k=jnp.asarray(0),
-                status=jnp.asarray(OK), ntd=jnp.asarray(0), last_td=zero,
-                last_contact=jnp.where(jnp.stack([active0[0] | active0[1], active0[2] | active0[3]]), 0.0, -1.0), td_time=jnp.full(n_td, jnp.nan),
-                td_foot=jnp.full(n_td, -1), td_heel_x=jnp.full(n_td, jnp.nan), td_hip_x=jnp.full(n_td, jnp.nan),
-                td_work=jnp.full((n_td, 2), jnp.nan),
-                work_abs=jnp.zeros(6), work_pos=jnp.zeros(6), drift_before=jnp.zeros(2), drift_after=jnp.zeros(2),
-                dke=jnp.full((), -jnp.inf), events=jnp.asarray(0), releases=jnp.asarray(0), friction=zero,
-                el_rel=jnp.zeros(N_ELEMENTS, jnp.int32), el_ev=jnp.zeros(N_ELEMENTS, jnp.int32),
-                n_log=jnp.asarray(0), log_t=jnp.full(nl, jnp.nan), log_x=jnp.zeros((nl, 18)),
-                log_u=jnp.zeros((nl, 6)), log_active=jnp.zeros((nl, N_ELEMENTS), bool),
-                log_ctrl=jnp.zeros((nl, nlog_c)), log_force=jnp.zeros((nl, N_ELEMENTS)))
-    c = jax.lax.while_loop(cond, body, init)
-    return SimResult(c["status"], c["t"], c["x"], c["active"], c["cstate"], c["ntd"], c["td_time"], c["td_foot"], c["td_heel_x"],
-                     c["td_hip_x"], c["td_work"], c["work_abs"], c["work_pos"], c["drift_before"], c["drift_after"], c["dke"],
-                     c["friction"], c["events"], c["releases"], c["el_ev"], c["el_rel"], c["n_log"], c["log_t"], c["log_x"], c["log_u"],
-                     c["log_active"], c["log_ctrl"], c["log_force"])
+        def do_accept(_):
+            xp, res = project(r, x1, active, anchors)
+            return xp, jnp.stack(res)
+
+        xp, res = jax.lax.cond(accept & finite, do_accept, lambda _: (x, jnp.zeros(2)), None)
+
+        def do_event(_):
+            q = xh[:9]
+            P = jnp.stack([sl.point_position(r, q, n) for n in sl.CONTACTS])
+            anchors_n = jnp.where(new[:4], P[:, 0], anchors)
+            ke0 = sl.kinetic_energy(r, q, xh[9:])
+            xe, imp, act = impact(r, xh, active, new)
+            xe, _ = project(r, xe, act, anchors_n)
+            ke1 = sl.kinetic_energy(r, xe[:9], xe[9:])
+            return xe, act, anchors_n, ke1 - ke0
+
+        xe, act_e, anch_e, dke = jax.lax.cond(located & finite, do_event,
+                                              lambda _: (x, active, anchors, zero), None)
+        st = dict(stats)
+        st["drift_before"] = jnp.where(accept, jnp.maximum(stats["drift_before"], res), stats["drift_before"])
+        st["dke"] = jnp.where(located, jnp.maximum(stats["dke"], dke), stats["dke"])
+        st["events"] = stats["events"] + located.astype(jnp.int32)
+        st["new"] = stats["new"] | (new & located)
+        st["nonfinite"] = stats["nonfinite"] | ~finite
+        t_n = jnp.where(accept, t + tau, jnp.where(located, t + hi_n, t))
+        x_n = jnp.where(accept, xp, jnp.where(located, xe, x))
+        act_n = jnp.where(located, act_e, active)
+        anch_n = jnp.where(located, anch_e, anchors)
+        mode_n = jnp.where(located | accept, 0, 1)
+        done = (accept & (t_end - t_n <= 1e-13)) | ~finite
+        return (t_n, x_n, xh, act_n, anch_n, st, mode_n, lo_n, hi_n, it + 1, done)
+
+    init = (t0, x, x, active, anchors, stats, jnp.asarray(0), zero, zero, jnp.asarray(0), jnp.asarray(False))
+    t, x, _, active, anchors, stats, *_, done = jax.lax.while_loop(cond, body, init)
+    stats = dict(stats, stuck=~done)
+    return t_end, x, active, anchors, stats
+
+
+def plant_sample(r: sl.SevenLink, S: Settings, c: Plant, u, ctrl_log) -> Plant:
+    """One control sample of the plant under the held torques u (6,): release pulling
+    elements, integrate with events (:func:`integrate`), then the records (work, drift,
+    touchdowns, status, the log row with the controller's ``ctrl_log``)."""
+    n_td = S.steps + 2
+    t, x, active, anchors = c.t, c.x, c.active, c.anchors
+    active, forces, released = release(r, x, u, active, force_tol=S.release_force_tol)
+    lam = constraint_forces(r, x, u, active)
+    stats = dict(drift_before=c.drift_before, dke=c.dke, events=c.events,
+                 new=jnp.zeros(N_ELEMENTS, bool), nonfinite=jnp.asarray(False))
+    phid0 = sl.joint_rates(x[9:])
+    t1, x1, active1, anchors1, stats = integrate(r, S, t, x, u, active, anchors, stats)
+    phid1 = sl.joint_rates(x1[9:])
+    power = u * 0.5 * (phid0 + phid1)  # trapezoid over the sample (u held)
+    drift_after = jnp.maximum(c.drift_after, jnp.stack(residual(r, x1, active1, anchors1)))
+    # touchdowns: a contact made by a foot that had been off the ground for min_flight
+    feet_before = jnp.stack([active[0] | active[1], active[2] | active[3]])
+    feet_after = jnp.stack([active1[0] | active1[1], active1[2] | active1[3]])
+    feet_new = jnp.stack([stats["new"][0] | stats["new"][1], stats["new"][2] | stats["new"][3]])
+    airborne = t - c.last_contact >= S.min_flight
+    td = feet_new & ~feet_before & airborne
+    last_contact = jnp.where(feet_before | feet_after | feet_new, t1, c.last_contact)
+    ntd = c.ntd
+    rec = {}
+    work_abs = c.work_abs + S.sample * jnp.abs(power)
+    work_pos = c.work_pos + S.sample * jnp.maximum(power, 0.0)
+    rec.update(td_time=c.td_time, td_foot=c.td_foot, td_heel_x=c.td_heel_x, td_hip_x=c.td_hip_x, td_work=c.td_work)
+    for f in range(2):
+        heel = sl.point_position(r, x1[:9], sl.CONTACTS[2 * f + 1])
+        i = jnp.minimum(ntd, n_td - 1)
+        rec["td_time"] = jnp.where(td[f], rec["td_time"].at[i].set(t1), rec["td_time"])
+        rec["td_foot"] = jnp.where(td[f], rec["td_foot"].at[i].set(f), rec["td_foot"])
+        rec["td_heel_x"] = jnp.where(td[f], rec["td_heel_x"].at[i].set(heel[0]), rec["td_heel_x"])
+        rec["td_hip_x"] = jnp.where(td[f], rec["td_hip_x"].at[i].set(x1[0]), rec["td_hip_x"])
+        rec["td_work"] = jnp.where(td[f], rec["td_work"].at[i].set(jnp.stack([jnp.sum(work_abs),
+                                                                              jnp.sum(work_pos)])),
+                                   rec["td_work"])
+        ntd = ntd + td[f].astype(jnp.int32)
+    last_td = jnp.where(jnp.any(td), t1, c.last_td)
+    stalled = (t1 - last_td) > S.max_step_time
+    fell = _fell(x1, S) | stalled
+    bad = stats["nonfinite"] | ~jnp.all(jnp.isfinite(x1))
+    status = jnp.where(bad, NONFINITE, jnp.where(stats["stuck"], STUCK, jnp.where(fell, FELL, OK)))
+    k = c.k
+    li = k // S.log_every
+    do_log = (k % S.log_every) == 0
+    for key, val in (("log_t", t), ("log_x", x), ("log_u", u), ("log_active", active),
+                     ("log_ctrl", ctrl_log), ("log_force", forces)):
+        rec[key] = jnp.where(do_log, getattr(c, key).at[li].set(val), getattr(c, key))
+    return c.replace(t=t1, x=jnp.where(bad, x, x1), active=active1, anchors=anchors1, k=k + 1,
+                     status=status, ntd=ntd, last_td=last_td, last_contact=last_contact, work_abs=work_abs,
+                     work_pos=work_pos, drift_before=stats["drift_before"], drift_after=drift_after, dke=stats["dke"],
+                     events=stats["events"], releases=c.releases + jnp.sum(released),
+                     el_rel=c.el_rel + released.astype(jnp.int32), el_ev=c.el_ev + stats["new"].astype(jnp.int32),
+                     friction=jnp.maximum(c.friction, _friction_ratio(lam)),
+                     n_log=jnp.where(do_log, li + 1, c.n_log), **rec)
+
+
+def closed_loop(r: sl.SevenLink, policy: Callable, settings: Settings, log_fn: Callable) -> SampledLoop:
+    """The walk as a :class:`bipedlab.sim.loop.SampledLoop` over ``params = policy params``:
+    the sensor hands the controller the plant (exact state and contact switches; the
+    Section V-A estimation is the policy's), the controller runs ``policy(params, cstate, t,
+    x, active) -> (u, cstate)`` and hands the plant (u, ``log_fn(cstate)``); the plant step is
+    :func:`plant_sample` (the event-driven sub-stepping is its own, so one plant step per
+    sample). Once the walk stops (:func:`running`), plant and controller hold their states."""
+    S = settings
+
+    def controller(p, cstate, pl, t):
+        def go(_):
+            u, c1 = policy(p, cstate, pl.t, pl.x, pl.active)
+            return c1, (u, log_fn(c1))
+
+        def hold(_):
+            return cstate, (jnp.zeros(6), log_fn(cstate))
+
+        return jax.lax.cond(running(S, pl), go, hold, None)
+
+    def plant_step(p, pl, u, d, h, t):
+        return jax.lax.cond(running(S, pl), lambda _: plant_sample(r, S, pl, *u), lambda _: pl, None)
+
+    return SampledLoop(plant_step=plant_step, sensor=lambda p, s, pl, t: (s, pl), controller=controller,
+                       fell=lambda p, pl0, y, u, pl: pl.status != OK, sample_time=S.sample)
+
+
+def result(s: LoopState, settings: Settings) -> SimResult:
+    """:class:`SimResult` from the loop's final state."""
+    c = s.x
+    td = lambda a: jnp.where((jnp.arange(a.shape[0]) < c.ntd).reshape((-1,) + (1,) * (a.ndim - 1)), a, jnp.nan)  # noqa: E731
+    log_t = jnp.where(jnp.arange(c.log_t.shape[0]) < c.n_log, c.log_t, jnp.nan)
+    dke = jnp.where(c.events > 0, c.dke, -jnp.inf)
+    return SimResult(c.status, c.t, c.x, c.active, s.ctrl, c.ntd, td(c.td_time), c.td_foot, td(c.td_heel_x),
+                     td(c.td_hip_x), td(c.td_work), c.work_abs, c.work_pos, c.drift_before, c.drift_after, dke,
+                     c.friction, c.events, c.releases, c.el_ev, c.el_rel, c.n_log, log_t, c.log_x, c.log_u,
+                     c.log_active, c.log_ctrl, c.log_force)
+
+
+def simulate(r: sl.SevenLink, policy: Callable, params, cstate0, x0, active0, settings: Settings = Settings(),
+             log_fn: Callable | None = None, loop: SampledLoop | None = None, chunk: int = 250) -> SimResult:
+    """Run the closed loop from (x0, active0) (x0 is projected onto active0 first) with
+    :func:`bipedlab.sim.loop.simulate`, in compiled chunks of ``chunk`` samples until the
+    walk stops (:func:`running`).
+
+    ``policy(params, cstate, t, x, active) -> (u (6,), cstate)`` is called once per sample;
+    ``log_fn(cstate) -> (k,)`` picks what of the controller state is logged; pass ``loop``
+    (:func:`closed_loop` of the same arguments) to reuse its compiled chunks."""
+    log_fn = log_fn or (lambda c: jnp.zeros(0))
+    loop = loop or closed_loop(r, policy, settings, log_fn)
+    nlog_c = jax.eval_shape(log_fn, cstate0).shape[0]
+    plant0 = jax.jit(lambda x0, a0: initial_plant(r, x0, a0, nlog_c, settings))(jnp.asarray(x0, jnp.float64),
+                                                                                jnp.asarray(active0))
+    s0 = loop_initial_state(plant0, None, cstate0)
+    s, _ = loop_simulate(loop, params, s0, settings.n_samples, chunk=chunk,
+                         until=lambda s: not bool(running(settings, s.x)))
+    return result(s, settings)

@@ -39,12 +39,11 @@ velocities by backward differences of the reconstructed angles.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import contact as sc
 
@@ -65,8 +64,7 @@ PINV_RTOL = 1e-10
 UNILATERAL_ITERATIONS = 2
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Gains:
     """Per state (rows S1-S4) and couple (columns body, thigh, knee, ankle): stiffness k
     (N m/rad), damping b (N m s/rad) and equilibrium ref (rad: body and thigh absolute angles,
@@ -222,8 +220,7 @@ def next_states(states, flat_seen, contacts, knees):
 
 
 # ----------------------------------------------------------------------------- the policy
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Params:
     """Everything the policy needs, as a pytree: the robot model used by the controller,
     the gains, and the sensing options (sensing: 0 ideal, 1 Section V-A)."""
@@ -239,8 +236,7 @@ class Params:
     unilateral_check: jax.Array
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class State:
     """Controller state: leg states (2,), flat_seen (2,), and the estimator's: body angle from
     the gyro, blend weight, previous angles (7,), filtered rates (7,), gyro filter, PRNG key,

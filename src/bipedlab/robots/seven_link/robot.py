@@ -43,8 +43,6 @@ Modelling choices the paper leaves open, stated here:
 """
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -52,6 +50,7 @@ import numpy as np
 from bipedlab.mechanics import Body, Point, build_model
 from bipedlab.mechanics import coupled as cp
 from bipedlab.mechanics import kinematics as kin
+from bipedlab.pytree import pytree
 
 # ----------------------------------------------------------------------------- Table I
 BODY = dict(length=0.390, com=0.185, mass=6.12, inertia=0.021)
@@ -99,8 +98,7 @@ JOINT_OFFSET = np.array([0.0, 0.0, np.pi / 2, 0.0, 0.0, np.pi / 2])
 E = JOINT_MAP.T.copy()
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class SevenLink:
     """The robot (a frozen pytree): the mechanics as a :class:`~bipedlab.mechanics.coupled.Coupled`
     tree seen through absolute angles, reflected rotor inertias on the joint rates, and

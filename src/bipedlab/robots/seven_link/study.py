@@ -28,6 +28,10 @@ import numpy as np
 from bipedlab.robots.seven_link import controller as ctl
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import contact as sc
+from bipedlab.sim.integrators import rk4
+from bipedlab.sim.loop import SampledLoop
+from bipedlab.sim.loop import initial_state as loop_initial_state
+from bipedlab.sim.loop import run as loop_run
 
 #: Steps ignored by the gait averages (the start from a guessed posture).
 TRANSIENT_STEPS = 6
@@ -83,11 +87,12 @@ def settings_for(steps: int) -> sc.Settings:
 @functools.lru_cache(maxsize=8)
 def _simulator(settings: sc.Settings):
     r = sl.model()
+    loop = sc.closed_loop(r, ctl.policy, settings, ctl.log_vector)
 
     def run(x0, active0, p, c0):
-        return sc.simulate(r, ctl.policy, p, c0, x0, active0, settings, ctl.log_vector)
+        return sc.simulate(r, ctl.policy, p, c0, x0, active0, settings, ctl.log_vector, loop=loop)
 
-    return jax.jit(run)
+    return run
 
 
 def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
@@ -201,31 +206,36 @@ def summary_walk(rec: dict) -> str:
 
 
 # ----------------------------------------------------------------------------- Fig. 6
-def _reduced_acc(r: sl.SevenLink, q0, e, s, sd):
+def _reduced_acc(r: sl.SevenLink, q0, e, s, sd, u=None):
     """Acceleration of the one-degree-of-freedom motion q = q0 + e s (the other coordinates
-    held): (e^T (damping - bias)) / (e^T M e)."""
+    held): (e^T (damping - bias + E u)) / (e^T M e); u (6,) joint torques, none by default."""
     q = q0 + e * s
     qd = e * sd
     m = e @ sl.mass_matrix(r, q) @ e
-    return e @ (sl.damping_force(r, qd) - sl.bias(r, q, qd)) / m
+    f = sl.damping_force(r, qd) - sl.bias(r, q, qd)
+    if u is not None:
+        f = f + sl.actuation(u)
+    return e @ f / m
+
+
+def _swing_loop(dt: float) -> SampledLoop:
+    """The free swing as a sampled loop: a zero-torque controller on the one-degree-of-freedom
+    plant q = q0 + e s (state [s, s_dot]), one RK4 step of :func:`_reduced_acc` per sample."""
+    def flow(p, z, u):
+        r, q0, e = p
+        return jnp.stack([z[1], _reduced_acc(r, q0, e, z[0], z[1], u)])
+
+    return SampledLoop(plant_step=lambda p, z, u, d, h, t: rk4(lambda z, u: flow(p, z, u), z, u, h),
+                       sensor=lambda p, s, z, t: (s, z), controller=lambda p, c, y, t: (c, jnp.zeros(6)),
+                       fell=lambda p, z0, y, u, z: jnp.asarray(False), sample_time=dt,
+                       log=lambda p, z0, y, u, z, c: z[0])
 
 
 @functools.partial(jax.jit, static_argnames=("n", "dt"))
 def _swing(r: sl.SevenLink, q0, e, s0, n: int, dt: float):
     """RK4 (step dt, n steps) of :func:`_reduced_acc` from rest at s0; returns s (n,)."""
-    acc = lambda s, v: _reduced_acc(r, q0, e, s, v)  # noqa: E731
-
-    def step(c, _):
-        s, v = c
-        k1 = (v, acc(s, v))
-        k2 = (v + 0.5 * dt * k1[1], acc(s + 0.5 * dt * k1[0], v + 0.5 * dt * k1[1]))
-        k3 = (v + 0.5 * dt * k2[1], acc(s + 0.5 * dt * k2[0], v + 0.5 * dt * k2[1]))
-        k4 = (v + dt * k3[1], acc(s + dt * k3[0], v + dt * k3[1]))
-        s1 = s + dt / 6 * (k1[0] + 2 * k2[0] + 2 * k3[0] + k4[0])
-        v1 = v + dt / 6 * (k1[1] + 2 * k2[1] + 2 * k3[1] + k4[1])
-        return (s1, v1), s1
-
-    return jax.lax.scan(step, (s0, jnp.zeros_like(s0)), None, length=n)[1]
+    _, s = loop_run(_swing_loop(dt), (r, q0, e), loop_initial_state(jnp.stack([s0, jnp.zeros_like(s0)])), n)
+    return s
 
 
 def _rk4_1dof(r, q0, e, s0, duration, dt=1e-3):
@@ -313,41 +323,74 @@ def pd_reference(t):
 PD_FREQ_HZ = (0.75, 1.5, 3.0)
 
 
+_PD_FREE = (3, 4, 5)
+
+
+def _pd_fixed_pose(r: sl.SevenLink):
+    return sl.configuration(np.pi / 2, np.deg2rad([9.0, -90.0, 30.0, 0.0, 0.0, 0.0]), r=r)
+
+
+def _pd_torque(t, q, qd):
+    """u = -K (phi - phi_d(t)) - B phi_dot on leg 1's joints (3,)."""
+    phi = sl.joint_angles(q)[:3]
+    phid = sl.joint_rates(qd)[:3]
+    return -jnp.asarray(PD_K) * (phi - pd_reference(t)) - jnp.asarray(PD_B) * phid
+
+
+def _pd_coordinates(q_fix, z):
+    free = jnp.asarray(_PD_FREE)
+    return q_fix.at[free].set(z[:3]), jnp.zeros(9).at[free].set(z[3:])
+
+
+def _pd_flow(p, x, u):
+    """[z_dot, 1] of the hanging leg (z = [theta_1..3, rates], x = [z, t]) under the PD servo,
+    evaluated at every RK4 stage (a continuous servo), plus the held joint torques u (3,)."""
+    r, q_fix = p
+    z, t = x[:6], x[6]
+    free = jnp.asarray(_PD_FREE)
+    q, qd = _pd_coordinates(q_fix, z)
+    tau = _pd_torque(t, q, qd) + u
+    f = jnp.asarray(sl.E)[:, :3] @ tau + sl.damping_force(r, qd) - sl.bias(r, q, qd)
+    M = sl.mass_matrix(r, q)
+    return jnp.concatenate([z[3:], jnp.linalg.solve(M[free][:, free], f[free]), jnp.ones(1)])
+
+
+def _pd_loop(dt: float) -> SampledLoop:
+    """Fig. 7 as a sampled loop: plant state (z (6,), sample index); the PD acts inside the
+    flow, the sampled controller adds no torque (u = 0) and the log records (z after the
+    sample, the PD torque at the sample's start)."""
+    def plant_step(p, xs, u, d, h, t):
+        z, k = xs
+        x1 = rk4(lambda x, u: _pd_flow(p, x, u), jnp.concatenate([z, (k * h)[None]]), u, h)
+        return x1[:6], k + 1
+
+    def sensor(p, s, xs, t):
+        z, k = xs
+        return s, (z, k * dt)
+
+    def log(p, xs0, y, u, xs, c):
+        q, qd = _pd_coordinates(p[1], y[0])
+        return xs[0], _pd_torque(y[1], q, qd) + u
+
+    return SampledLoop(plant_step=plant_step, sensor=sensor, controller=lambda p, c, y, t: (c, jnp.zeros(3)),
+                       fell=lambda p, x0, y, u, x: jnp.asarray(False), sample_time=dt, log=log)
+
+
 def _pd_sim(duration: float, dt: float = 5e-4):
     """Leg 1 hanging from the fixed, upright body (x, y, theta and leg 2 held), three free
     absolute angles theta_1..theta_3, u = -K (phi - phi_d) - B phi_dot on leg 1's joints."""
     r = sl.model()
-    free = jnp.array([3, 4, 5])
-    q_fix = sl.configuration(np.pi / 2, np.deg2rad([9.0, -90.0, 30.0, 0.0, 0.0, 0.0]), r=r)
-    K, B = jnp.asarray(PD_K), jnp.asarray(PD_B)
-    E = jnp.asarray(sl.E)
-
-    def acc(t, z):
-        q = q_fix.at[free].set(z[:3])
-        qd = jnp.zeros(9).at[free].set(z[3:])
-        phi = sl.joint_angles(q)[:3]
-        phid = sl.joint_rates(qd)[:3]
-        u = -K * (phi - pd_reference(t)) - B * phid
-        f = E[:, :3] @ u + sl.damping_force(r, qd) - sl.bias(r, q, qd)
-        M = sl.mass_matrix(r, q)
-        return jnp.concatenate([z[3:], jnp.linalg.solve(M[free][:, free], f[free])]), u
-
-    def step(z, t):
-        k1, u = acc(t, z)
-        k2, _ = acc(t + dt / 2, z + dt / 2 * k1)
-        k3, _ = acc(t + dt / 2, z + dt / 2 * k2)
-        k4, _ = acc(t + dt, z + dt * k3)
-        z1 = z + dt / 6 * (k1 + 2 * k2 + 2 * k3 + k4)
-        return z1, (z1, u)
-
+    free = jnp.asarray(_PD_FREE)
+    q_fix = _pd_fixed_pose(r)
     # start on the reference at t = 0 (at rest)
     phi0 = np.asarray(pd_reference(0.0))
     q0 = sl.configuration(np.pi / 2, np.concatenate([phi0, [0.0, 0.0, 0.0]]), r=r)
     z0 = jnp.concatenate([q0[free], jnp.zeros(3)])
     n = int(round(duration / dt))
-    ts = jnp.arange(n) * dt
-    _, (zs, us) = jax.jit(lambda z0: jax.lax.scan(step, z0, ts))(z0)
-    t = np.asarray(ts) + dt
+    ts = np.arange(n) * dt
+    loop = _pd_loop(dt)
+    _, (zs, us) = jax.jit(lambda p, z0: loop_run(loop, p, loop_initial_state((z0, jnp.asarray(0))), n))((r, q_fix), z0)
+    t = ts + dt
     th = np.asarray(zs[:, :3])
     phi = np.stack([th[:, 0] - np.pi / 2, th[:, 1] - th[:, 0], th[:, 2] - th[:, 1] + np.pi / 2], axis=1)
     return t, phi, np.asarray(pd_reference(t)), np.asarray(us)

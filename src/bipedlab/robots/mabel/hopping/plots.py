@@ -1,4 +1,6 @@
-"""Figures for MABEL's hopping study, after the identification paper's Figs. 21-23."""
+"""Figures for MABEL's hopping study, after the identification paper's Figs. 21-23. Figures go
+through :mod:`bipedlab.viz.figures`; no stick-figure frames (MABEL has no drawing-point
+routine yet, see :mod:`bipedlab.robots.mabel.walking.plots`)."""
 from __future__ import annotations
 
 from pathlib import Path
@@ -6,15 +8,7 @@ from pathlib import Path
 import numpy as np
 
 from bipedlab.robots.mabel import tables as tb
-
-
-def _plt():
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    return plt
+from bipedlab.viz import figures
 
 
 def _window(run, first_hop: int, hops: int = 2):
@@ -31,14 +25,12 @@ def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30
     two hops, and the hop period over the run. Returns the written paths."""
     from bipedlab.robots.mabel.hopping.study import _I
 
-    plt = _plt()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = figures.output_dir(out)
     w = _window(run, first_hop)
     t, x = run.t[w], run.x[w]
     paths = []
 
-    fig, ax = plt.subplots(3, 2, figsize=(10, 8), sharex=True)
+    fig, ax = figures.subplots(3, 2, figsize=(10, 8), sharex=True)
     for k, s in enumerate(tb.SIDES):
         ax[0, k].plot(t, np.rad2deg(x[:, _I[f"la_{s}"]]), label="q_LA")
         ax[0, k].set_title(f"{'left' if s == 'L' else 'right'} leg")
@@ -57,28 +49,26 @@ def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30
     for a in ax[2]:
         a.set_xlabel("time (s)")
     fig.suptitle("MABEL hopping: joint angles and hip position (cf. Fig. 21)")
-    fig.tight_layout()
-    paths.append(_save(fig, out / "hop_joints.png", plt))
+    paths.append(figures.save(fig, out / "hop_joints.png"))
 
-    paths.append(_per_actuator(plt, t, run.u[w], "command (N m)", "Motor torque commands (cf. Fig. 22)",
+    paths.append(_per_actuator(t, run.u[w], "command (N m)", "Motor torque commands (cf. Fig. 22)",
                                out / "hop_torques.png"))
-    paths.append(_per_actuator(plt, t, np.rad2deg(stretch[w]), "stretch, motor side (deg)",
+    paths.append(_per_actuator(t, np.rad2deg(stretch[w]), "stretch, motor side (deg)",
                                "Cable stretch in motor coordinates (cf. Fig. 23)", out / "hop_cable_stretch.png"))
 
     if len(run.touchdowns) > 2:
-        fig, ax = plt.subplots(figsize=(7, 3.5))
+        fig, ax = figures.subplots(figsize=(7, 3.5))
         ax.plot(np.arange(1, len(run.touchdowns)), np.diff(run.touchdowns), ".-")
         ax.set_xlabel("hop")
         ax.set_ylabel("period (s)")
         ax.set_title("Hop period, touchdown to touchdown")
-        fig.tight_layout()
-        paths.append(_save(fig, out / "hop_periods.png", plt))
+        paths.append(figures.save(fig, out / "hop_periods.png"))
     return paths
 
 
-def _per_actuator(plt, t, data, ylabel: str, title: str, path: Path) -> str:
+def _per_actuator(t, data, ylabel: str, title: str, path: Path) -> str:
     """One panel per actuator (tables.ACTUATORS order) of data (N, 4) against t."""
-    fig, ax = plt.subplots(2, 2, figsize=(10, 6), sharex=True)
+    fig, ax = figures.subplots(2, 2, figsize=(10, 6), sharex=True)
     for k, a in enumerate(tb.ACTUATORS):
         axk = ax[k % 2, k // 2]
         axk.plot(t, data[:, k])
@@ -87,11 +77,4 @@ def _per_actuator(plt, t, data, ylabel: str, title: str, path: Path) -> str:
     for a in ax[1]:
         a.set_xlabel("time (s)")
     fig.suptitle(title)
-    fig.tight_layout()
-    return _save(fig, path, plt)
-
-
-def _save(fig, path: Path, plt) -> str:
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    return str(path)
+    return figures.save(fig, path)

@@ -51,7 +51,7 @@ def _section_search(m, p, x, c, samples: int, substeps: int = hm.SUBSTEPS):
 def _free(m):
     """State indices on the section: all but the hip's x (the map ignores it)."""
     n = m.n
-    return np.array([i for i in range(2 * n) if i != hm._I["x"]])
+    return np.array([i for i in range(2 * n) if i != hm.INDEX["x"]])
 
 
 def _pack(m, p, x, c, update: bool):
@@ -69,7 +69,7 @@ def _unpack(m, p, v, x_ref, c_ref, update: bool):
     k = len(free)
     x = x_ref.at[free].set(v[:k])
     n = m.n
-    idx = jnp.asarray([hm._I[c] for c in hm.H_COORDS])
+    idx = jnp.asarray([hm.INDEX[c] for c in hm.H_COORDS])
     h, hdot = x[idx], x[n + idx]
     fields = dict(h_prev=h - p.period * hdot, hdot=hdot)
     if update:
@@ -140,10 +140,10 @@ def analyse(warmup_hops: int = 40, observe_hops: int = 16, per_base: int = 50, s
     m = model or mm.hopping_model()
     p = (params or hop.paper_params()).replace(encoder_counts=jnp.asarray(0.0), torso_update=jnp.asarray(1.0))
     x0 = hm.initial_state(m, p)
-    c0 = hop.initial_state(p, hm._sense(m, p, x0)[0])
+    c0 = hop.initial_state(p, hm.sense(m, p, x0)[0])
     samples, substeps = _sampling(p)
     steps = int(warmup_hops * 0.6 / float(p.period))
-    x, c, alive, _ = hm._closed_loop(m, p, x0, c0, steps=steps, substeps=substeps, record=False)
+    x, c, alive, _ = hm.run_samples_jit(m, p, x0, c0, steps=steps, substeps=substeps, record=False)
     secs = sections(m, p, x, c, observe_hops + 1) if bool(alive) else []
     if len(secs) < observe_hops + 1:
         return {"converged": False, "hops_observed": len(secs)}
@@ -168,8 +168,8 @@ def analyse(warmup_hops: int = 40, observe_hops: int = 16, per_base: int = 50, s
         method="least-squares fit of the touchdown-to-touchdown map over perturbed touchdown states",
         section="touchdown (first control sample of phase II)",
         hops_observed=observe_hops,
-        touchdown_speed_mps=spread_of(col(n + hm._I["x"])),
-        touchdown_torso_deg=spread_of(np.rad2deg(col(hm._I["tor"]))),
+        touchdown_speed_mps=spread_of(col(n + hm.INDEX["x"])),
+        touchdown_torso_deg=spread_of(np.rad2deg(col(hm.INDEX["tor"]))),
         desired_torso_deg=spread_of(np.rad2deg(V[:, -1])),
         with_torso_update=dict(max_abs_eigenvalue=float(np.abs(eig_u).max()), eigenvalues=_complex_list(top(eig_u)),
                                unexplained_variance=un_u, samples=k_u),

@@ -23,7 +23,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.robots.mabel.hopping import controller as hop
-from bipedlab.sim import integrators
+from bipedlab.pytree import pytree
+from bipedlab.sim import integrators, loop
 from bipedlab.robots.mabel import dynamics as md
 from bipedlab.robots.mabel import model as mm
 from bipedlab.robots.mabel import tables as tb
@@ -31,11 +32,15 @@ from bipedlab.robots.mabel import transmission as tr
 
 DT = 5e-5
 SUBSTEPS = 20
+#: The loop's sample time (s); the controller itself uses its parameter ``period``.
+CONTROL_PERIOD = 1e-3
 #: The hop counts as a fall when the hip drops below this height (m) or the torso leaves
 #: the rotation limiter's range (+30 / -40 deg, identification paper, footnote 7).
 MIN_HIP_HEIGHT = 0.5
 TORSO_RANGE = (np.deg2rad(-40.0), np.deg2rad(30.0))
-_I = {c: i for i, c in enumerate(mm.COORDS_13)}
+#: Index of each 13-DoF coordinate in the state.
+INDEX = {c: i for i, c in enumerate(mm.COORDS_13)}
+_I = INDEX
 H_COORDS = ("la_L", "mls_L", "la_R", "mls_R")
 
 
@@ -56,7 +61,9 @@ def initial_state(m: mm.Mabel, p: hop.HopParams, clearance: float = 0.02) -> jax
     return jnp.concatenate([jnp.asarray(q), jnp.zeros(13), jnp.zeros(2)])
 
 
-def _sense(m: mm.Mabel, p: hop.HopParams, x):
+def sense(m: mm.Mabel, p: hop.HopParams, x):
+    """What the controller reads: h (4,), torso angle, toe heights (2,), horizontal boom angle,
+    vertical boom rate (see :func:`bipedlab.robots.mabel.hopping.controller.update`)."""
     n = m.n
     q, qd = x[:n], x[n:2 * n]
     h = jnp.stack([q[_I[c]] for c in H_COORDS])
@@ -64,7 +71,8 @@ def _sense(m: mm.Mabel, p: hop.HopParams, x):
     return h, q[_I["tor"]], toes, q[_I["x"]] / p.boom_radius, qd[_I["y"]] / p.boom_radius
 
 
-def _fell(x):
+def fell(x):
+    """A fall: hip below MIN_HIP_HEIGHT or the torso outside TORSO_RANGE."""
     tor = x[_I["tor"]]
     return (x[_I["y"]] < MIN_HIP_HEIGHT) | (tor < TORSO_RANGE[0]) | (tor > TORSO_RANGE[1])
 
@@ -79,33 +87,94 @@ STEPPERS = {"implicit": md.step, "rk4": _rk4_step}
 def control_sample(m: mm.Mabel, p: hop.HopParams, x, c, dt: float, substeps: int, advance=md.step):
     """One 1 ms control sample: the controller reads the state, then ``substeps`` steps of
     length dt under its held torques. Returns (x after the sample, controller state, u)."""
-    c_new, u = hop.update(p, c, *_sense(m, p, x))
+    c_new, u = hop.update(p, c, *sense(m, p, x))
     xn = jax.lax.fori_loop(0, substeps, lambda _, x: advance(m, x, u, dt), x)
     return xn, c_new, u
 
 
-def closed_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, steps: int, dt: float = DT, substeps: int = SUBSTEPS,
+# ----- the closed loop on bipedlab.sim.loop ----------------------------------------------------
+@pytree
+class Plant:
+    """Plant state of the hopping loop: the robot's state ``x`` (28,) and ``dead``, set when the
+    last sample failed (a fall or a non-finite state); a failed sample is not applied."""
+
+    x: jax.Array
+    dead: jax.Array
+
+
+@pytree
+class Memory:
+    """Controller state of the hopping loop: the controller's memory ``now`` and ``before`` the
+    last sample (the memory in force again when that sample failed and was not applied)."""
+
+    now: hop.HopState
+    before: hop.HopState
+
+
+def _tree_where(flag, a, b):
+    return jax.tree_util.tree_map(lambda u, v: jnp.where(flag, u, v), a, b)
+
+
+def _loop_sensor(params, sensor_state, plant: Plant, t):
+    m, p = params
+    return sensor_state, (plant.dead, sense(m, p, plant.x))
+
+
+def _loop_controller(params, mem: Memory, y, t):
+    m, p = params
+    dead, reading = y
+    c = _tree_where(dead, mem.before, mem.now)
+    c_new, u = hop.update(p, c, *reading)
+    return Memory(c_new, c), u
+
+
+def _plant_step(advance, dt: float, substeps: int):
+    def plant_step(params, plant: Plant, u, d, h, t):
+        """One control period: ``substeps`` steps of length dt under the held torques u; the
+        sample is not applied (and ``dead`` is set) when it ends in a fall or non-finite."""
+        m, p = params
+        xn = jax.lax.fori_loop(0, substeps, lambda _, x: advance(m, x, u, dt), plant.x)
+        dead = ~jnp.all(jnp.isfinite(xn)) | fell(xn)
+        return Plant(jnp.where(dead, plant.x, xn), dead)
+
+    return plant_step
+
+
+def _loopfell(params, before, y, u, plant: Plant):
+    return plant.dead
+
+
+def _loop_log(params, before, y, u, plant: Plant, mem: Memory):
+    m, p = params
+    phase = jnp.where(plant.dead, mem.before.phase, mem.now.phase)
+    return plant.x, jnp.clip(u, -m.drive.torque_limit, m.drive.torque_limit), phase
+
+
+def hop_loop(period: float, dt: float = DT, substeps: int = SUBSTEPS, record: bool = True,
+             stepper: str = "implicit") -> loop.SampledLoop:
+    """The hopping closed loop as a :class:`bipedlab.sim.loop.SampledLoop` over params ``(m, p)``:
+    sensor (:func:`sense`), the five-phase controller with its memory (:class:`Memory`), one
+    plant step per control sample integrating ``substeps`` steps of ``dt`` (:data:`STEPPERS`),
+    the fall check (:func:`fell`), and the log (state, commanded torques, phase) when ``record``."""
+    return loop.SampledLoop(plant_step=_plant_step(STEPPERS[stepper], dt, substeps), sensor=_loop_sensor,
+                            controller=_loop_controller, fell=_loop_fell, sample_time=period,
+                            log=_loop_log if record else None)
+
+
+def run_samples(m: mm.Mabel, p: hop.HopParams, x0, c0, steps: int, dt: float = DT, substeps: int = SUBSTEPS,
                 record: bool = True, stepper: str = "implicit"):
     """Simulate ``steps`` control samples. Returns (x, c, alive, log) where log holds per
     sample the state after it, the commanded torques and the phase (or None).
     stepper: "implicit" (:func:`~bipedlab.robots.mabel.dynamics.step`) or "rk4" on the exact
     vector field (needs dt below about 1e-5 s at the hard stop)."""
-    advance = STEPPERS[stepper]
-
-    def sample(carry, _):
-        x, c, alive = carry
-        xn, c_new, u = control_sample(m, p, x, c, dt, substeps, advance)
-        ok = alive & jnp.all(jnp.isfinite(xn)) & ~_fell(xn)
-        x = jnp.where(ok, xn, x)
-        c = jax.tree_util.tree_map(lambda a, b: jnp.where(ok, a, b), c_new, c)
-        out = (x, jnp.clip(u, -m.drive.torque_limit, m.drive.torque_limit), c.phase) if record else None
-        return (x, c, ok), out
-
-    (x, c, alive), log = jax.lax.scan(sample, (x0, c0, jnp.asarray(True)), None, length=steps)
-    return x, c, alive, log
+    lp = hop_loop(CONTROL_PERIOD, dt, substeps, record, stepper)
+    s0 = loop.initial_state(Plant(x0, jnp.asarray(False)), None, Memory(c0, c0))
+    s, log = loop.run(lp, (m, p), s0, steps)
+    c = _tree_where(s.x.dead, s.ctrl.before, s.ctrl.now)
+    return s.x.x, c, s.status == loop.OK, log
 
 
-_closed_loop = jax.jit(closed_loop, static_argnames=("steps", "dt", "substeps", "record", "stepper"))
+run_samples_jit = jax.jit(run_samples, static_argnames=("steps", "dt", "substeps", "record", "stepper"))
 
 
 _CACHE: dict = {}
@@ -115,7 +184,7 @@ def _compiled(m, p, x0, c0, steps: int):
     """Ahead-of-time compiled closed loop, cached per model structure and length."""
     key = (jax.tree_util.tree_structure((m, p)), steps)
     if key not in _CACHE:
-        _CACHE[key] = _closed_loop.lower(m, p, x0, c0, steps=steps).compile()
+        _CACHE[key] = run_samples_jit.lower(m, p, x0, c0, steps=steps).compile()
     return _CACHE[key]
 
 
@@ -140,7 +209,7 @@ def run_hops(hops: int = 100, torso_update: bool = True, params: hop.HopParams |
     m = model or mm.hopping_model()
     p = (params or hop.paper_params()).replace(torso_update=jnp.asarray(1.0 if torso_update else 0.0))
     x0 = initial_state(m, p)
-    c0 = hop.initial_state(p, _sense(m, p, x0)[0])
+    c0 = hop.initial_state(p, sense(m, p, x0)[0])
     steps = int(np.ceil((hops + 1) * seconds_per_hop / float(p.period)))
     t0 = time.perf_counter()
     compiled = _compiled(m, p, x0, c0, steps)
@@ -199,7 +268,7 @@ def accuracy_check(seconds: float = 1.2, params: hop.HopParams | None = None) ->
     m = mm.hopping_model()
     p = (params or hop.paper_params()).replace(encoder_counts=jnp.asarray(0.0))
     x0 = initial_state(m, p)
-    c0 = hop.initial_state(p, _sense(m, p, x0)[0])
+    c0 = hop.initial_state(p, sense(m, p, x0)[0])
     steps = int(round(seconds / float(p.period)))
     runs = {}
     for name, dt, sub, stepper in (("implicit_0.1ms", 1e-4, 10, "implicit"),
@@ -207,7 +276,7 @@ def accuracy_check(seconds: float = 1.2, params: hop.HopParams | None = None) ->
                                    ("implicit_0.025ms", 2.5e-5, 40, "implicit"),
                                    ("rk4_5us", 5e-6, 200, "rk4")):
         t0 = time.perf_counter()
-        _, _, _, (xs, _, ph) = _closed_loop(m, p, x0, c0, steps=steps, dt=dt, substeps=sub, stepper=stepper)
+        _, _, _, (xs, _, ph) = run_samples_jit(m, p, x0, c0, steps=steps, dt=dt, substeps=sub, stepper=stepper)
         xs, ph = np.asarray(xs), np.asarray(ph)
         runs[name] = (xs, ph, time.perf_counter() - t0)
     ref_x, ref_ph, _ = runs["rk4_5us"]
@@ -319,11 +388,11 @@ def robustness(samples: int = 32, hops: int = 50, seed: int = 0) -> dict:
     steps = int((hops + 1) * 0.7 / float(base.period))
     for name, flag in (("with_torso_update", 1.0), ("without_torso_update", 0.0)):
         p = base.replace(torso_update=jnp.asarray(flag))
-        c0 = hop.initial_state(p, _sense(m, p, jnp.asarray(x_nom))[0])
+        c0 = hop.initial_state(p, sense(m, p, jnp.asarray(x_nom))[0])
 
         def one(x0, p=p, c0=c0):
-            c0 = dataclasses.replace(c0, h_prev=hop.quantise(p, _sense(m, p, x0)[0]))
-            return closed_loop(m, p, x0, c0, steps, record=False)[1].touchdowns
+            c0 = dataclasses.replace(c0, h_prev=hop.quantise(p, sense(m, p, x0)[0]))
+            return run_samples(m, p, x0, c0, steps, record=False)[1].touchdowns
 
         td = np.asarray(jax.jit(jax.vmap(one))(jnp.asarray(X)))
         done = np.maximum(td - 1, 0)

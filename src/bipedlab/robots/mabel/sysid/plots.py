@@ -1,8 +1,7 @@
 """Figures of MABEL's identification study, after the identification paper's Figs. 13, 15-17,
-19, 21 and 23: simulated against measured responses of the identified models."""
+19, 21 and 23: simulated against measured responses of the identified models. Figures go
+through :mod:`bipedlab.viz.figures`."""
 from __future__ import annotations
-
-from pathlib import Path
 
 import numpy as np
 
@@ -11,24 +10,17 @@ from bipedlab.robots.mabel.sysid import friction, hopping_fit, rigs
 from bipedlab.robots.mabel.sysid import params as P
 from bipedlab.robots.mabel.sysid.logs import motor_encoder
 from bipedlab.robots.mabel.sysid.transmission import simulate_first_order
-from bipedlab.robots.mabel.hopping.plots import _plt
+from bipedlab.viz import figures
 
 SIM = dict(color="tab:red", lw=1.2, label="simulation")
 EXP = dict(color="tab:blue", lw=1.0, ls=":", label="experiment")
 
 
-def _save(plt, fig, path, paths):
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    paths.append(str(path))
-
-
-def _transmission(plt, ident, out, paths):
+def _transmission(ident, out, paths):
     tr = ident.fits.get("transmission")
     if not tr:
         return
-    fig, axes = plt.subplots(2, 2, figsize=(10, 6))
+    fig, axes = figures.subplots(2, 2, figsize=(10, 6))
     for ax, a in zip(axes[0], ("mLA_L", "mLS_L")):
         if a not in tr:
             continue
@@ -61,17 +53,17 @@ def _transmission(plt, ident, out, paths):
         ax.plot([int(e.meta["combination"]) for e, _ in rows], [f.mu_exp * 1e3 for _, f in rows], "o-", label=a)
     ax.set(title="lumped friction per combination", xlabel="combination", ylabel="mu_exp (mN m s/rad)")
     ax.legend(fontsize=8)
-    _save(plt, fig, out / "identify_transmission.png", paths)
+    figures.save(fig, out / "identify_transmission.png", paths)
 
 
-def _legs(plt, ident, out, paths, mode: str, fig_no: int):
+def _legs(ident, out, paths, mode: str, fig_no: int):
     legs = ident.fits.get("legs")
     if not legs:
         return
     rows = [(s, e) for s, (_, exps) in legs.items() for e in exps if e.meta.get("mode") == mode]
     if not rows:
         return
-    fig, axes = plt.subplots(len(rows), 2, figsize=(11, 2.4 * len(rows)), squeeze=False)
+    fig, axes = figures.subplots(len(rows), 2, figsize=(11, 2.4 * len(rows)), squeeze=False)
     for (s, e), ax_row in zip(rows, axes):
         rig = rigs.leg_rig(ident.params, s)
         Y = np.stack([e.enc[motor_encoder(a)] for a in rigs.LEG_ACTUATORS[s]], axis=1)
@@ -82,36 +74,36 @@ def _legs(plt, ident, out, paths, mode: str, fig_no: int):
             ax.set(title=f"{e.name}: {name} (deg)", xlabel="time (s)")
         ax_row[0].legend(fontsize=8)
     fig.suptitle(f"{mode.upper()} leg experiments (Fig. {fig_no})")
-    _save(plt, fig, out / f"identify_legs_{mode}.png", paths)
+    figures.save(fig, out / f"identify_legs_{mode}.png", paths)
 
 
-def _springs(plt, ident, out, paths):
+def _springs(ident, out, paths):
     sp = ident.fits.get("springs")
     if not sp:
         return
-    fig, ax = plt.subplots(figsize=(6, 4))
+    fig, ax = figures.subplots(figsize=(6, 4))
     for s, f in sp.items():
         pts = ax.plot(f.deflection, f.torque, "o", label=f"{s}: K_B {f.stiffness:.1f} N m/rad, tau_0 {f.preload:.2f} N m")[0]
         x = np.linspace(0.0, f.deflection.max() * 1.05, 10)
         ax.plot(x, f.stiffness * x + f.preload, color=pts.get_color(), lw=0.8)
     ax.set(title="spring torque against deflection (Fig. 19)", xlabel="q_Bsp (rad)", ylabel="tau_Bsp (N m)")
     ax.legend(fontsize=8)
-    _save(plt, fig, out / "identify_springs.png", paths)
+    figures.save(fig, out / "identify_springs.png", paths)
 
 
-def _com(plt, ident, out, paths):
+def _com(ident, out, paths):
     cc = ident.fits.get("com_check")
     if not cc:
         return
-    fig, axes = plt.subplots(1, len(cc.distance_mm), figsize=(5 * len(cc.distance_mm), 3.5), squeeze=False)
+    fig, axes = figures.subplots(1, len(cc.distance_mm), figsize=(5 * len(cc.distance_mm), 3.5), squeeze=False)
     for ax, (name, d) in zip(axes[0], cc.distance_mm.items()):
         ax.bar(np.arange(1, len(d) + 1), d)
         ax.axhline(0.0, color="k", lw=0.5)
         ax.set(title=f"{name}: COM - {cc.support[name]} (Fig. 17)", xlabel="posture", ylabel="mm")
-    _save(plt, fig, out / "identify_com.png", paths)
+    figures.save(fig, out / "identify_com.png", paths)
 
 
-def _hopping(plt, ident, out, paths):
+def _hopping(ident, out, paths):
     if "hopping" not in ident.fits:
         return
     e, hf = ident.fits["hopping"]
@@ -121,7 +113,7 @@ def _hopping(plt, ident, out, paths):
     qs = hopping_fit.replay_log(e, ident.params)
     H = hopping_fit._H
     names = ("tor", "la_L", "ls_L", "la_R", "ls_R", "bsp_L", "bsp_R", "y")
-    fig, axes = plt.subplots(4, 2, figsize=(11, 9))
+    fig, axes = figures.subplots(4, 2, figsize=(11, 9))
     for ax, c in zip(axes.ravel(), names):
         f = 1.0 if c == "y" else np.rad2deg(1.0)
         ax.plot(t, q[:, H[c]] * f, **EXP)
@@ -129,8 +121,8 @@ def _hopping(plt, ident, out, paths):
         ax.set(title=("hip height (m)" if c == "y" else f"{c} (deg)"), xlabel="time (s)")
     axes[0, 0].legend(fontsize=8)
     fig.suptitle("hopping: the identified 13-DoF model replayed under the logged commands (Fig. 21)")
-    _save(plt, fig, out / "identify_hop_joints.png", paths)
-    fig, axes = plt.subplots(2, 2, figsize=(10, 6))
+    figures.save(fig, out / "identify_hop_joints.png", paths)
+    fig, axes = figures.subplots(2, 2, figsize=(10, 6))
     for ax, a in zip(axes.ravel(), P.ACTUATORS):
         _, r, _, qm = hopping_fit.cable_inputs(e, a)
         sim = hopping_fit.simulate_cable(e, ident.params, a)
@@ -139,19 +131,17 @@ def _hopping(plt, ident, out, paths):
         ax.set(title=f"cable stretch {a} (deg, motor side)", xlabel="time (s)")
     axes[0, 0].legend(fontsize=8)
     fig.suptitle("cable stretch (Fig. 23)")
-    _save(plt, fig, out / "identify_hop_cable.png", paths)
+    figures.save(fig, out / "identify_hop_cable.png", paths)
 
 
 def write_figures(ident, out) -> list[str]:
     """Every figure the identification has data for; returns the written paths."""
-    plt = _plt()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = figures.output_dir(out)
     paths: list[str] = []
-    _transmission(plt, ident, out, paths)
-    _legs(plt, ident, out, paths, "siso", 15)
-    _legs(plt, ident, out, paths, "mimo", 16)
-    _springs(plt, ident, out, paths)
-    _com(plt, ident, out, paths)
-    _hopping(plt, ident, out, paths)
+    _transmission(ident, out, paths)
+    _legs(ident, out, paths, "siso", 15)
+    _legs(ident, out, paths, "mimo", 16)
+    _springs(ident, out, paths)
+    _com(ident, out, paths)
+    _hopping(ident, out, paths)
     return paths

@@ -22,7 +22,8 @@ estimators.
   It is integrated with the momentum-like state ``z = J psi_dot - mu q_tor - Kd_C s`` (``s =
   q_tor + r``), in which no derivative of a measured input appears: ``psi_dot = (z + mu q_tor
   + Kd_C s) / J``, ``z_dot = F - (mu + Kd_C) psi_dot - K_C (psi - s)``. Measured inputs are
-  interpolated linearly between samples; RK4 with ``substeps`` steps per sample.
+  interpolated linearly between samples; RK4 (:func:`bipedlab.sim.integrators.rk4`) with
+  ``substeps`` steps per sample, its stages reading the inputs at the nodes t, t + h/2, t + h.
 
 Sample convention everywhere: row k of a log holds the readings at t_k = k h and the command
 u_k applied over [t_k, t_k+1).
@@ -196,6 +197,14 @@ def rotor_cable(rc: RotorCable, u, r, tor, qm0, substeps: int = 4, h: float = PE
         psid = (z + rc.mu * tor_ + rc.D * s_) / rc.J
         return jnp.stack([psid, Fk - (rc.mu + rc.D) * psid - rc.K * (psi - s_)])
 
+    def staged(xc, nodes):
+        # x augmented with a stage clock c (dc/dt = 1, 0 at the substep's start): RK4's
+        # stages see c = 0, h/2, h/2, h exactly, and read the inputs interpolated at those nodes
+        c = xc[2]
+        inp = jax.tree_util.tree_map(lambda a, b, d: jnp.where(c < 0.25 * dt, a, jnp.where(c < 0.75 * dt, b, d)),
+                                     *nodes)
+        return jnp.concatenate([f(xc[:2], inp), jnp.ones(1)])
+
     def sample(x, k):
         s0, s1, t0, t1, Fk = s[k], s[k + 1], tor[k], tor[k + 1], F[k]
 
@@ -206,11 +215,7 @@ def rotor_cable(rc: RotorCable, u, r, tor, qm0, substeps: int = 4, h: float = PE
             i0 = (Fk, s0 + a0 * (s1 - s0), t0 + a0 * (t1 - t0))
             i1 = (Fk, s0 + a1 * (s1 - s0), t0 + a1 * (t1 - t0))
             i2 = (Fk, s0 + a2 * (s1 - s0), t0 + a2 * (t1 - t0))
-            k1 = f(x, i0)
-            k2 = f(x + 0.5 * dt * k1, i1)
-            k3 = f(x + 0.5 * dt * k2, i1)
-            k4 = f(x + dt * k3, i2)
-            return x + (dt / 6.0) * (k1 + 2.0 * (k2 + k3) + k4)
+            return integrators.rk4(staged, jnp.concatenate([x, jnp.zeros(1)]), (i0, i1, i2), dt)[:2]
 
         x_next = jax.lax.fori_loop(0, substeps, sub, x)
         return x_next, x[0]

@@ -41,12 +41,11 @@ of its MC, SC and SI pieces instead (:func:`update_at_impact`).
 """
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 
 from bipedlab.control import bezier as bz
+from bipedlab.pytree import pytree
 
 MC, SC, SI, SD = range(4)
 PHASES = ("mc", "sc", "si", "sd")
@@ -60,8 +59,7 @@ OVERRUN = 0.0
 OVERRUN_WIDTH = 0.02
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Constraints:
     """Virtual constraints of one step (all float64; angles in rad, motor angles motor-side).
 
@@ -84,9 +82,6 @@ class Constraints:
     la_sw: jax.Array
     mls_sw: jax.Array
     corr: jax.Array
-
-    def replace(self, **kw) -> "Constraints":
-        return dataclasses.replace(self, **kw)
 
 
 def theta(qs):

@@ -14,12 +14,15 @@ and V).
   leg-angle motor -> q_LA_sw, swing leg-shape motor -> q_mLS_sw, stance leg-angle motor ->
   q_Tor), with the sign of that motor's effect on its output.
 
+The generic pieces (output Jacobian of a linear phase, decoupling matrix and Lf^2 h on the
+reduced dynamics D_s qdd + H_s = B_s u, the outer loop, the linearising input, u*) come from
+:mod:`bipedlab.control.hzd`; the sub-phase chains, the corrections and the saturation are
+MABEL's.
+
 All controllers saturate at the drivetrain's torque limits (30 N m leg angle, 55 N m leg
 shape, or the lower limits of an experiment).
 """
 from __future__ import annotations
-
-import dataclasses
 
 import jax
 import jax.numpy as jnp
@@ -27,7 +30,9 @@ import numpy as np
 
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.control import bezier as bz
+from bipedlab.control import hzd
 from bipedlab.robots.mabel.walking import constraints as vcm
+from bipedlab.pytree import pytree
 
 KINDS = ("pdff", "iolin", "decentralized")
 #: actuator (in u = (mLA_st, mLS_st, mLA_sw, mLS_sw)) driving each output (mLS_st, LA_sw, mLS_sw, Tor)
@@ -35,8 +40,7 @@ ACTUATOR_OF_OUTPUT = (1, 2, 3, 0)
 _THETA_Q = jnp.asarray([-1.0, 0.0, 0.0, 0.0, 0.0, -1.0])
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Gains:
     """kp, kd (4,) per output for pdff (motor N m per rad, per rad/s of the output);
     eps, kp_io, kd_io for eq. 42; beta (4 phases, 4 actuators, 6): u* Béziers; beta_bounds
@@ -53,14 +57,11 @@ class Gains:
     signs: jax.Array
     limit: jax.Array
 
-    def replace(self, **kw) -> "Gains":
-        return dataclasses.replace(self, **kw)
-
 
 def output_jacobian(dh):
     """dy/dq_s (4, 6) given dh/dtheta (4,)."""
     H0 = jnp.zeros((4, 6)).at[jnp.arange(4), jnp.asarray(vcm.H0_INDEX)].set(1.0)
-    return H0 - dh[:, None] * _THETA_Q[None, :]
+    return hzd.linear_phase_output_jacobian(H0, _THETA_Q, dh)
 
 
 def decoupling(m, vc, phase, z, terms=None):
@@ -73,22 +74,20 @@ def decoupling(m, vc, phase, z, terms=None):
     Jy = output_jacobian(dh)
     y = vcm.controlled(qs) - h
     yd = Jy @ qds
-    DiB = jnp.linalg.solve(D, jnp.concatenate([B, H[:, None]], 1))
-    A = Jy @ DiB[:, :4]
-    lf2 = -Jy @ DiB[:, 4] - ddh * thd**2
+    A, lf2 = hzd.affine_decoupling(Jy, -ddh * thd**2, D, H, B)
     return y, yd, A, lf2
 
 
 def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False, terms=None):
     """Eq. 42 (decentralised: diagonal decoupling matrix)."""
     y, yd, A, lf2 = decoupling(m, vc, phase, z, terms)
-    v = -(g.kp_io / g.eps**2) * y - (g.kd_io / g.eps) * yd
+    v = hzd.outer_loop(y, yd, g.eps, g.kp_io, g.kd_io)
     if decentralized:
         # u*(x_s) of eq. 32 in full; only the feedback sees the diagonal (each output's own motor)
         act = jnp.asarray(ACTUATOR_OF_OUTPUT)
-        u = jnp.linalg.solve(A, -lf2) + jnp.zeros(4).at[act].set(v / jnp.diag(A[:, act]))
+        u = hzd.feedforward_input(A, lf2) + jnp.zeros(4).at[act].set(v / jnp.diag(A[:, act]))
     else:
-        u = jnp.linalg.solve(A, v - lf2)
+        u = hzd.linearizing_input(A, lf2, v)
     return jnp.clip(u, -g.limit, g.limit)
 
 

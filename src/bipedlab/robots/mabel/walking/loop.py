@@ -19,22 +19,30 @@ post-impact state (eqs. 45-47). A backward difference across the touchdown would
 pre- and post-impact rates, so at that sample the rate estimate is the model's transition map
 applied to the last pre-impact estimate.
 
+The loop is a :class:`bipedlab.sim.loop.SampledLoop` (params = :class:`Setup`): plant state
+:class:`Plant` (stance state, time in the step, touchdown count, positive motor work, distance),
+sensor stage :func:`sensor` (encoders and the touchdown switch), controller stage
+:func:`controller` with its own state :class:`Ctrl`, exogenous input :func:`exogenous` (the
+push), plant substep :func:`plant_step`, failure test :func:`fell` and the logged signals
+:func:`log`.
+
 Falls: hip lower than ``MIN_HIP_HEIGHT``, the stance toe pulling on the ground, |F_T / F_N|
 above ``MU``, theta_s running backwards, or a step lasting more than ``MAX_STEP_TIME``.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
-import numpy as np
 
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.robots.mabel.walking.zero_dynamics import motor_power
 from bipedlab.mechanics import coupled as cp
 from bipedlab.robots.mabel.walking import stance as wk
+from bipedlab.pytree import pytree
+from bipedlab.sim import loop as sl
+from bipedlab.sim import sensors
+from bipedlab.sim.events import regula_falsi
 from bipedlab.sim.integrators import rk4
 
 SAMPLE = 1e-3
@@ -50,8 +58,7 @@ OBSERVER_GAIN = 0.9
 GAMMA = 0.03
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Setup:
     """A run's fixed data: nominal constraints, controller gains, impact scaling, push force
     (N, positive forward) and its step index (-1 for none), the nominal step period,
@@ -72,31 +79,56 @@ class Setup:
     observer: jax.Array = 0.0
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
-class State:
+@pytree
+class Plant:
+    """The plant's state: stance state z = (q_s, qd_s), time since the last touchdown (s), the
+    number of touchdowns, the positive motor work (J) and the distance walked (m)."""
+
     z: jax.Array
-    t: jax.Array
     t_step: jax.Array
     step: jax.Array
+    work_pos: jax.Array
+    distance: jax.Array
+
+
+@pytree
+class Reading:
+    """What the controller reads at a sample: the encoders q (6,), the exact rates qd (6,)
+    (used only with ``sensing="ideal"``), whether a touchdown happened during the last
+    period, and the touchdown count."""
+
+    q: jax.Array
+    qd: jax.Array
+    impacted: jax.Array
+    step: jax.Array
+
+
+@pytree
+class Ctrl:
+    """The controller's state: sub-phase, constraints in force, last encoder reading, rate
+    estimate and torque."""
+
     phase: jax.Array
     vc: vcm.Constraints
     q_prev: jax.Array
     v_est: jax.Array
     u_prev: jax.Array
-    impacted: jax.Array
-    fell: jax.Array
-    work_pos: jax.Array
-    distance: jax.Array
+
+
+@pytree
+class Held:
+    """Exogenous input held over a sample: the hip force (2,) N and the touchdown count at the
+    sample's start (the push stops at a touchdown inside the sample)."""
+
+    force: jax.Array
+    step0: jax.Array
 
 
 def _measure(setup: Setup, z):
-    res = 2 * jnp.pi / COUNTS
-    q = z[:6]
-    return jnp.where(setup.quantised > 0, jnp.round(q / res) * res, q)
+    return sensors.encoder(z[:6], COUNTS, exact=~(setup.quantised > 0))
 
 
-def _hip_force(setup: Setup, s: State):
+def _hip_force(setup: Setup, s: Plant):
     on = (s.step == setup.push_step) & (s.t_step >= 0.5 * setup.period)
     return jnp.stack([jnp.where(on, setup.push_force, 0.0), 0.0])
 
@@ -118,15 +150,7 @@ def _substep(m, setup, z, u, f, t_step, h):
     touched = (g0 > 0.0) & (g1 <= 0.0) & (t_step > 0.1 * setup.period)
 
     def locate(_):
-        def body(c, _):
-            a, b, ga, gb = c
-            x = a - ga * (b - a) / (gb - ga)
-            gx = _toe(m, _rk4(m, z, u, f, x * h))
-            left = gx > 0.0
-            return (jnp.where(left, x, a), jnp.where(left, b, x), jnp.where(left, gx, ga), jnp.where(left, gb, gx)), None
-
-        a, b, ga, gb = jax.lax.scan(body, (0.0, 1.0, g0, g1), None, length=6)[0]
-        x = a - ga * (b - a) / (gb - ga)
+        x = regula_falsi(lambda x: _toe(m, _rk4(m, z, u, f, x * h)), 0.0, 1.0, g0, g1, 6)
         zm = _rk4(m, z, u, f, x * h)
         tr = wk.impact(m, zm, setup.eta)
         zp = _rk4(m, tr.z_plus, u, 0.0 * f, (1.0 - x) * h)
@@ -136,7 +160,7 @@ def _substep(m, setup, z, u, f, t_step, h):
     return zt, touched, x, length
 
 
-def _rate_estimate(m, setup: Setup, s: State, q):
+def _rate_estimate(m, setup: Setup, s: Ctrl, q):
     """Velocity from the encoders between touchdowns.
 
     ``setup.observer == 0``: the filtered backward difference of the experiments,
@@ -149,102 +173,125 @@ def _rate_estimate(m, setup: Setup, s: State, q):
     v = O (v_prev + a T) + (1 - O) (...) with O = OBSERVER_GAIN. The model carries the
     estimate between samples, so the blend can smooth the quantisation noise heavily without
     the lag a plain filter of the same strength adds."""
-    diff = (q - s.q_prev) / SAMPLE
-    plain = VELOCITY_FILTER * s.v_est + (1.0 - VELOCITY_FILTER) * diff
+    plain = sensors.filtered_difference(s.v_est, q, s.q_prev, SAMPLE, VELOCITY_FILTER)
 
     def observed(_):
         a = wk.stance_flow(wk.without_stop(m), jnp.concatenate([s.q_prev, s.v_est]), s.u_prev)[6:]
-        return OBSERVER_GAIN * (s.v_est + SAMPLE * a) + (1.0 - OBSERVER_GAIN) * (diff + 0.5 * SAMPLE * a)
+        return sensors.observer_blend(s.v_est, a, q, s.q_prev, SAMPLE, OBSERVER_GAIN)
 
     return jax.lax.cond(setup.observer > 0, observed, lambda _: plain, None)
 
 
-def sample(m, kind: str, setup: Setup, s: State):
-    """One 1 ms control period: read, control, integrate. Returns (state, log row)."""
-    q = _measure(setup, s.z)
-    relabel = s.impacted & (s.t > 0.0)  # the first sample starts from a post-impact state
+def sensor(setup: Setup, last_step, x: Plant, t):
+    """The encoders and the touchdown switch; the sensor's state is the touchdown count at the
+    previous sample (-1 at the start: the first sample starts from a post-impact state)."""
+    return x.step, Reading(q=_measure(setup, x.z), qd=x.z[6:], impacted=x.step != last_step, step=x.step)
+
+
+def controller(m, kind: str, setup: Setup, s: Ctrl, r: Reading, t):
+    """Rate estimate, constraints and sub-phase update, torque (saturated)."""
+    q = r.q
+    relabel = r.impacted & (t > 0.0)  # the first sample starts from a post-impact state
     # across a touchdown the estimator predicts the post-impact rates with the model's
-    # transition map applied to its last (pre-impact) estimate
     # transition map applied to its last (pre-impact) estimate; both maps run only then
     v = jax.lax.cond(
         relabel, lambda _: wk.impact(m, jnp.concatenate([s.q_prev, s.v_est]), setup.eta).z_plus[6:],
         lambda _: _rate_estimate(m, setup, s, q), None)
-    v = jnp.where(setup.quantised > 0, v, s.z[6:])
+    v = jnp.where(setup.quantised > 0, v, r.qd)
     zm = jnp.concatenate([q, v])
-    nominal = vcm.lean(setup.vc, setup.lean * jnp.minimum(s.step / jnp.maximum(setup.lean_steps, 1), 1.0))
+    nominal = vcm.lean(setup.vc, setup.lean * jnp.minimum(r.step / jnp.maximum(setup.lean_steps, 1), 1.0))
     if kind == "pdff":
-        vc = jax.tree_util.tree_map(lambda a, b: jnp.where(s.impacted, a, b), nominal, s.vc)
+        vc = jax.tree_util.tree_map(lambda a, b: jnp.where(r.impacted, a, b), nominal, s.vc)
     else:
-        vc = jax.lax.cond(s.impacted, lambda _: vcm.update_at_impact(nominal, q, v, nominal, invariant=True),
+        vc = jax.lax.cond(r.impacted, lambda _: vcm.update_at_impact(nominal, q, v, nominal, invariant=True),
                           lambda _: s.vc, None)
-    phase = jnp.where(s.impacted, vcm.MC, s.phase)
+    phase = jnp.where(r.impacted, vcm.MC, s.phase)
     phase, th_sc = vcm.next_phase(vc, phase, q, v, GAMMA)
     vc = vc.replace(theta_sc=th_sc)
     u = ctl.control(kind, wk.without_stop(m), vc, phase, zm, setup.gains)
-    f = _hip_force(setup, s)
-    y, yd = vcm.outputs(vc, phase, s.z[:6], s.z[6:])
-    grf = wk.ground_reaction(m, s.z, u, f)
-
-    h = SAMPLE / SUBSTEPS
-
-    def sub(c, _):
-        z, touched, t_step, step, work, dist = c
-        p = motor_power(u, z[6:])
-        zn, hit, x, length = _substep(m, setup, z, u, jnp.where(touched, 0.0, 1.0) * f, t_step, h)
-        hit = hit & ~touched
-        t_step = jnp.where(hit, (1.0 - x) * h, t_step + h)
-        return (zn, touched | hit, t_step, step + hit, work + h * jnp.sum(jnp.maximum(p, 0.0)),
-                dist + jnp.where(hit, length, 0.0)), None
-
-    (z, touched, t_step, step, work, dist), _ = jax.lax.scan(
-        sub, (s.z, jnp.asarray(False), s.t_step, s.step, s.work_pos, s.distance), None, length=SUBSTEPS)
-    hip = cp.point_position(m.body, wk.embed(m, z)[0], "hip")
-    fell = (s.fell | (hip[1] < MIN_HIP_HEIGHT) | (grf[1] < 0.0) | (jnp.abs(grf[0]) > MU * grf[1])
-            | (vcm.theta_rate(z[6:]) < 0.0) | (t_step > MAX_STEP_TIME) | ~jnp.all(jnp.isfinite(z)))
-    z = jnp.where(s.fell, s.z, z)
-    new = State(z=z, t=s.t + SAMPLE, t_step=t_step, step=step, phase=phase, vc=vc, q_prev=q, v_est=v,
-                u_prev=u, impacted=touched, fell=fell, work_pos=work, distance=dist)
-    log = dict(z=s.z, u=u, y=y, yd=yd, phase=phase, theta=vcm.theta(s.z[:6]), grf=grf, step=s.step,
-               touched=touched, hip=hip, force=f[0], distance=dist, work=work)
-    return new, log
+    return Ctrl(phase=phase, vc=vc, q_prev=q, v_est=v, u_prev=u), u
 
 
-def initial_state(setup: Setup, z0, phase=vcm.MC) -> State:
+def exogenous(setup: Setup, x: Plant, t) -> Held:
+    """The push of Exp. 2, held over the sample."""
+    return Held(force=_hip_force(setup, x), step0=x.step)
+
+
+def plant_step(m, setup: Setup, x: Plant, u, d: Held, h, t) -> Plant:
+    """One substep (:func:`_substep`); the push stops once the sample has seen a touchdown, and
+    only one touchdown counts per sample."""
+    touched = x.step != d.step0
+    p = motor_power(u, x.z[6:])
+    zn, hit, frac, length = _substep(m, setup, x.z, u, jnp.where(touched, 0.0, 1.0) * d.force, x.t_step, h)
+    hit = hit & ~touched
+    t_step = jnp.where(hit, (1.0 - frac) * h, x.t_step + h)
+    return Plant(z=zn, t_step=t_step, step=x.step + hit, work_pos=x.work_pos + h * jnp.sum(jnp.maximum(p, 0.0)),
+                 distance=x.distance + jnp.where(hit, length, 0.0))
+
+
+def fell(m, setup: Setup, x0: Plant, r: Reading, u, x: Plant):
+    """Hip too low, stance toe pulling or slipping (ground reaction at the sample's start),
+    theta_s running backwards, or a step too long."""
+    grf = wk.ground_reaction(m, x0.z, u, _hip_force(setup, x0))
+    hip = cp.point_position(m.body, wk.embed(m, x.z)[0], "hip")
+    return ((hip[1] < MIN_HIP_HEIGHT) | (grf[1] < 0.0) | (jnp.abs(grf[0]) > MU * grf[1])
+            | (vcm.theta_rate(x.z[6:]) < 0.0) | (x.t_step > MAX_STEP_TIME))
+
+
+def log(m, setup: Setup, x0: Plant, r: Reading, u, x: Plant, c: Ctrl) -> dict:
+    """One row per sample: state at its start, torque, outputs, sub-phase, theta, ground
+    reaction, step count, touchdown flag, hip position, push force, distance, positive work."""
+    f = _hip_force(setup, x0)
+    y, yd = vcm.outputs(c.vc, c.phase, x0.z[:6], x0.z[6:])
+    grf = wk.ground_reaction(m, x0.z, u, f)
+    hip = cp.point_position(m.body, wk.embed(m, x.z)[0], "hip")
+    return dict(z=x0.z, u=u, y=y, yd=yd, phase=c.phase, theta=vcm.theta(x0.z[:6]), grf=grf, step=x0.step,
+                touched=x.step != x0.step, hip=hip, force=f[0], distance=x.distance, work=x.work_pos)
+
+
+def closed_loop(m, kind: str) -> sl.SampledLoop:
+    """MABEL's walking loop with model m and controller ``kind`` (cached per (m, kind))."""
+    key = (id(m), kind)
+    loop = _LOOPS.get(key)
+    if loop is None:
+        loop = _LOOPS[key] = sl.SampledLoop(
+            plant_step=lambda p, x, u, d, h, t: plant_step(m, p, x, u, d, h, t), sensor=sensor,
+            controller=lambda p, c, r, t: controller(m, kind, p, c, r, t),
+            fell=lambda p, x0, r, u, x: fell(m, p, x0, r, u, x), sample_time=SAMPLE, substeps=SUBSTEPS,
+            log=lambda p, x0, r, u, x, c: log(m, p, x0, r, u, x, c), exogenous=exogenous)
+    return loop
+
+
+def initial_state(setup: Setup, z0, phase=vcm.MC) -> sl.LoopState:
+    """The loop's state at the post-impact state z0 (time 0, no touchdown yet)."""
     z0 = jnp.asarray(z0)
     q = _measure(setup, z0)
     f = jnp.zeros(())
-    return State(z=z0, t=f, t_step=f, step=jnp.zeros((), int), phase=jnp.asarray(phase), vc=setup.vc,
-                 q_prev=q, v_est=z0[6:], u_prev=jnp.zeros(4), impacted=jnp.asarray(True), fell=jnp.asarray(False),
-                 work_pos=f, distance=f)
+    x = Plant(z=z0, t_step=f, step=jnp.zeros((), int), work_pos=f, distance=f)
+    c = Ctrl(phase=jnp.asarray(phase), vc=setup.vc, q_prev=q, v_est=z0[6:], u_prev=jnp.zeros(4))
+    return sl.initial_state(x, jnp.asarray(-1), c, 0.0)
 
 
 def make_runner(m, kind: str, chunk: int):
     """A compiled function (setup, state) -> (state, logs over ``chunk`` samples)."""
-
-    @jax.jit
-    def run(setup, state):
-        return jax.lax.scan(lambda s, _: sample(m, kind, setup, s), state, None, length=chunk)
-
-    return run
+    return sl.compiled_runner(closed_loop(m, kind), chunk)
 
 
 def simulate(m, kind: str, setup: Setup, z0, steps: int, chunk: int = 500, progress=None):
     """Walk from the post-impact state z0 until ``steps`` touchdowns or a fall. Returns
-    (final state, logs concatenated as NumPy arrays)."""
-    run = _RUNNERS.get((id(m), kind, chunk))
-    if run is None:
-        run = _RUNNERS[(id(m), kind, chunk)] = make_runner(m, kind, chunk)
-    s = initial_state(setup, z0)
-    logs = []
-    while True:
-        s, log = run(setup, s)
-        logs.append(jax.tree_util.tree_map(np.asarray, log))
-        if progress is not None:
-            progress(int(s.step), steps)
-        if bool(s.fell) or int(s.step) >= steps:
-            break
-    out = {k: np.concatenate([lg[k] for lg in logs]) for k in logs[0]}
-    return s, out
+    (final :class:`~bipedlab.sim.loop.LoopState`, its plant state ``.x`` a :class:`Plant` and
+    ``.status`` non-zero after a fall; logs concatenated as NumPy arrays). ``progress(step,
+    steps)`` is called after each chunk."""
+    cb = None if progress is None else (lambda s: progress(int(s.x.step), steps))
+    # a step lasting more than MAX_STEP_TIME is a fall, so the sample bound is never reached
+    bound = int((steps + 1) * MAX_STEP_TIME / SAMPLE) + 2 * chunk
+    return sl.simulate(closed_loop(m, kind), setup, initial_state(setup, z0), bound, chunk,
+                       until=lambda s: int(s.x.step) >= steps, progress=cb)
 
 
-_RUNNERS: dict = {}
+def fell_flag(s: sl.LoopState) -> bool:
+    """Whether the run ended by a fall (or a non-finite state)."""
+    return int(s.status) != sl.OK
+
+
+_LOOPS: dict = {}

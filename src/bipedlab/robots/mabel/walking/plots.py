@@ -1,8 +1,10 @@
 """Figures for MABEL's compliant-HZD walking studies, after the paper's Figs. 5-9, 12, 16, 17
-and 20."""
-from __future__ import annotations
+and 20. Figures go through :mod:`bipedlab.viz.figures`.
 
-from pathlib import Path
+No stick-figure frames yet: MABEL's walking model has no drawing-point routine (a
+``segments(m, q)`` from :func:`bipedlab.robots.mabel.dynamics.toe_positions` and the joint
+positions would feed :mod:`bipedlab.viz.animation` as the five-link one does)."""
+from __future__ import annotations
 
 import numpy as np
 
@@ -10,16 +12,9 @@ from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import stance as wk
-from bipedlab.robots.mabel.hopping.plots import _plt
+from bipedlab.viz import figures
 
 PHASE_NAMES = ("mc", "sc", "si", "sd")
-
-
-def _save(plt, fig, path, paths):
-    fig.tight_layout()
-    fig.savefig(path, dpi=110)
-    plt.close(fig)
-    paths.append(str(path))
 
 
 def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
@@ -29,9 +24,7 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     import jax
     import jax.numpy as jnp
 
-    plt = _plt()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = figures.output_dir(out)
     th, w, u, z, ph, bounds = md.orbit(m, design)
     t = w[:, 3]
     qs, qds = z[:, :6], z[:, 6:]
@@ -42,17 +35,17 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
         for e in edges:
             ax.axvline(e, color="0.8", lw=0.8)
 
-    fig, axs = plt.subplots(2, 3, figsize=(11, 6))
+    fig, axs = figures.subplots(2, 3, figsize=(11, 6))
     names = ["q_LA_st (deg)", "q_mLS_st (deg, motor)", "q_Bsp_st (deg)", "q_LA_sw (deg)", "q_mLS_sw (deg, motor)", "q_Tor (deg)"]
     for k, ax in enumerate(axs.ravel()):
         ax.plot(t, np.degrees(qs[:, k]))
         ax.set_title(names[k], fontsize=9)
         marks(ax)
     axs[1, 0].set_xlabel("time (s)")
-    _save(plt, fig, out / f"{prefix}gait_constraints.png", paths)
+    figures.save(fig, out / f"{prefix}gait_constraints.png", paths)
 
     ls = qs[:, 1] / tb.GEAR_LS + qs[:, 2] / tb.GEAR_BSP
-    fig, axs = plt.subplots(1, 2, figsize=(9, 3.5))
+    fig, axs = figures.subplots(1, 2, figsize=(9, 3.5))
     axs[0].plot(t, np.degrees(ls))
     axs[0].set_title("stance leg shape q_LS (deg)", fontsize=9)
     axs[1].plot(t, np.degrees(qs[:, 2]))
@@ -61,20 +54,20 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     for ax in axs:
         marks(ax)
         ax.set_xlabel("time (s)")
-    _save(plt, fig, out / f"{prefix}gait_spring.png", paths)
+    figures.save(fig, out / f"{prefix}gait_spring.png", paths)
 
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = figures.subplots(figsize=(6, 3.5))
     for k, n in enumerate(tb.ACTUATORS):
         ax.plot(t, u[:, k], label=n.replace("_L", " st").replace("_R", " sw"))
     marks(ax)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("motor torque (N m)")
     ax.legend(fontsize=8)
-    _save(plt, fig, out / f"{prefix}gait_torques.png", paths)
+    figures.save(fig, out / f"{prefix}gait_torques.png", paths)
 
     toe = np.asarray(jax.vmap(lambda zz: wk.swing_toe(m, zz)[1])(jnp.asarray(z)))
     com = np.asarray(jax.vmap(lambda zz: _com_height(m, zz))(jnp.asarray(z)))
-    fig, axs = plt.subplots(1, 2, figsize=(9, 3.5))
+    fig, axs = figures.subplots(1, 2, figsize=(9, 3.5))
     axs[0].plot(t, toe)
     axs[0].set_title("swing toe height (m)", fontsize=9)
     axs[1].plot(t, com)
@@ -82,11 +75,11 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     for ax in axs:
         marks(ax)
         ax.set_xlabel("time (s)")
-    _save(plt, fig, out / f"{prefix}gait_toe_com.png", paths)
+    figures.save(fig, out / f"{prefix}gait_toe_com.png", paths)
 
     p_motor = u[:, 1] * qds[:, 1]
     p_spring = np.asarray(wk.spring_torque(m, jnp.asarray(qs[:, 2]), jnp.asarray(qds[:, 2]), 0)) * qds[:, 2]
-    fig, ax = plt.subplots(figsize=(6, 3.5))
+    fig, ax = figures.subplots(figsize=(6, 3.5))
     ax.plot(t, p_motor + p_spring, lw=2.0, label="motor + spring (total at the leg shape)")
     ax.plot(t, p_motor, lw=1.0, label="motor")
     marks(ax)
@@ -94,7 +87,7 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     ax.set_xlabel("time (s)")
     ax.set_ylabel("power (W)")
     ax.legend(fontsize=8)
-    _save(plt, fig, out / f"{prefix}gait_power.png", paths)
+    figures.save(fig, out / f"{prefix}gait_power.png", paths)
 
     np.savez(out / f"{prefix}gait_orbit.npz", t=t, theta=th, q_s=qs, qd_s=qds, u=u, phase=ph, bounds=bounds)
     paths.append(str(out / f"{prefix}gait_orbit.npz"))
@@ -111,47 +104,45 @@ def walk_figures(out, log: dict, r: dict) -> list[str]:
     """Tracking of the virtual constraints (desired vs actual error, Fig. 12), motor torques
     (Fig. 13), speed per step (Fig. 16), stance B_spring and torso over the run (Figs. 14, 20),
     and an NPZ of the logs."""
-    plt = _plt()
-    out = Path(out)
-    out.mkdir(parents=True, exist_ok=True)
+    out = figures.output_dir(out)
     paths = []
     t = np.arange(len(log["theta"])) * 1e-3
     n = min(len(t), 3000)
     sl = slice(max(0, len(t) - n), len(t))
 
-    fig, axs = plt.subplots(2, 2, figsize=(10, 6))
+    fig, axs = figures.subplots(2, 2, figsize=(10, 6))
     for k, ax in enumerate(axs.ravel()):
         ax.plot(t[sl], np.degrees(log["y"][sl, k]))
         ax.set_title(f"tracking error y, {vcm.OUTPUTS[k]} (deg)", fontsize=9)
         ax.set_xlabel("time (s)")
-    _save(plt, fig, out / "walk_tracking.png", paths)
+    figures.save(fig, out / "walk_tracking.png", paths)
 
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    fig, ax = figures.subplots(figsize=(7, 3.5))
     for k, name in enumerate(("mLA st", "mLS st", "mLA sw", "mLS sw")):
         ax.plot(t[sl], log["u"][sl, k], label=name, lw=0.8)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("motor torque (N m)")
     ax.legend(fontsize=8)
-    _save(plt, fig, out / "walk_torques.png", paths)
+    figures.save(fig, out / "walk_torques.png", paths)
 
     sp = r.get("speed_per_step") or []
-    fig, ax = plt.subplots(figsize=(7, 3.5))
+    fig, ax = figures.subplots(figsize=(7, 3.5))
     ax.plot(np.arange(1, len(sp) + 1), sp, "o-", ms=3)
     if r.get("push_step") is not None:
         ax.axvline(r["push_step"] + 1, color="r", lw=2, label=f"push {r['push_force_n']:+.0f} N")
         ax.legend(fontsize=8)
     ax.set_xlabel("step")
     ax.set_ylabel("speed (m/s)")
-    _save(plt, fig, out / "walk_speed.png", paths)
+    figures.save(fig, out / "walk_speed.png", paths)
 
-    fig, axs = plt.subplots(1, 2, figsize=(10, 3.5))
+    fig, axs = figures.subplots(1, 2, figsize=(10, 3.5))
     axs[0].plot(t[sl], np.degrees(log["z"][sl, 2]))
     axs[0].set_title("stance B_spring (deg)", fontsize=9)
     axs[1].plot(t[sl], np.degrees(log["z"][sl, 5]))
     axs[1].set_title("torso (deg)", fontsize=9)
     for ax in axs:
         ax.set_xlabel("time (s)")
-    _save(plt, fig, out / "walk_spring_torso.png", paths)
+    figures.save(fig, out / "walk_spring_torso.png", paths)
 
     np.savez(out / "walk_log.npz", **{k: np.asarray(v) for k, v in log.items()})
     paths.append(str(out / "walk_log.npz"))

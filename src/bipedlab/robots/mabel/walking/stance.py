@@ -23,8 +23,6 @@ deflection through eq. 1), and the legs are relabelled.
 """
 from __future__ import annotations
 
-import dataclasses
-
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -34,6 +32,7 @@ from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel import transmission as tr
 from bipedlab.robots.mabel.dynamics import drivetrain_forces
 from bipedlab.robots.mabel.model import COORDS_9, Mabel, rigid_model
+from bipedlab.pytree import pytree
 
 _E = {c: i for i, c in enumerate(COORDS_9)}
 #: Stance coordinates with the left leg in stance, in the paper's order.
@@ -166,8 +165,7 @@ def swing_toe(m: Mabel, z):
     return cp.point_position(m.body, q, "toe_R")
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Transition:
     """Result of the stance-to-stance map: the new stance state, the toe impulse (N s), the
     hard-stop impulse on the old stance spring (N m s), the step vector (m) and the velocity

@@ -275,7 +275,7 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
              progress=None, lean_deg: float = 0.0, lean_steps: int = 20):
-    """Simulate; returns (final state, logs, gait record)."""
+    """Simulate; returns (final loop state, logs, gait record)."""
     vc, gains, rec = load_gait(gait)
     m = wk.walking_model()
     setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
@@ -293,17 +293,17 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
 
 def metrics(s, log) -> dict:
     touched = np.nonzero(log["touched"])[0]
-    n = int(s.step)
+    n = int(s.x.step)
     t_imp = (touched + 1) * sw.SAMPLE
     durations = np.diff(np.concatenate([[0.0], t_imp]))
     lengths = np.diff(np.concatenate([[0.0], log["distance"][touched]]))
-    dist, t = float(s.distance), float(t_imp[-1]) if n else float(s.t)
+    dist, t = float(s.x.distance), float(t_imp[-1]) if n else float(s.t)
     speed_steps = (lengths / durations).tolist()
     y = log["y"][: touched[-1] + 1] if n else log["y"]
     mass = robot_mass()
     work = float(log["work"][touched[-1]]) if n else 0.0
     cmt = work / (mass * 9.81 * dist) if dist > 0 else None
-    return dict(fell=bool(s.fell), steps_completed=n, distance_m=dist, duration_s=t,
+    return dict(fell=sw.fell_flag(s), steps_completed=n, distance_m=dist, duration_s=t,
                 speed_mps=dist / t if t > 0 and n else 0.0, cmt=cmt,
                 tracking_rms_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.sqrt(np.mean(y**2, 0))))},
                 tracking_peak_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.max(np.abs(y), 0)))},

@@ -12,7 +12,8 @@ Integration is in theta (RK4, fixed nodes per sub-phase), with time and the cost
 carried along: ``w = (b, thetadot, bdot, t, int |u|^2 dt, int positive motor work,
 negative work at the stance leg shape by its motor, and by its spring)``. A sub-phase ending
 at a state-dependent event (the 5 deg spring trigger, touchdown) is closed by one more RK4
-step whose length is found by Newton's method (:func:`to_event`), so the map stays smooth
+step whose length is found by Newton's method (:func:`to_event`, on
+:func:`bipedlab.sim.events.newton`), so the map stays smooth
 for forward-mode derivatives.
 """
 from __future__ import annotations
@@ -23,6 +24,8 @@ import jax.numpy as jnp
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import stance as wk
+from bipedlab.sim.events import newton
+from bipedlab.sim.integrators import rk4_t_scan
 
 GEAR_LA = tb.GEAR_LA
 #: theta-dot below which the theta-domain integrand is clamped (rad/s); gaits keep thetadot > 0.1
@@ -57,21 +60,11 @@ def _integrand(m, vc, phase, th, w):
     return dw, (u, qs, qds)
 
 
-_STAGE_OFFSET = jnp.asarray([0.0, 0.5, 0.5, 1.0])
-_STAGE_WEIGHT = jnp.asarray([1.0, 2.0, 2.0, 1.0]) / 6.0
-
-
 def rk4(f, th, w, h):
-    """One RK4 step in theta of dw/dtheta = f(theta, w)[0]; the four stages share one traced
-    f (a scan), which keeps compile times short. Returns (w(th + h), f's sample at th)."""
-
-    def stage(carry, c):
-        acc, k = carry
-        dw, sample = f(th + c[0] * h, w + c[0] * h * k)
-        return (acc + c[1] * h * dw, dw), sample
-
-    (wn, _), samples = jax.lax.scan(stage, (w, jnp.zeros_like(w)), jnp.stack([_STAGE_OFFSET, _STAGE_WEIGHT], 1))
-    return wn, jax.tree_util.tree_map(lambda a: a[0], samples)
+    """One RK4 step in theta of dw/dtheta = f(theta, w)[0] (:func:`bipedlab.sim.integrators.rk4_t_scan`:
+    the four stages share one traced f, which keeps compile times short). Returns
+    (w(th + h), f's sample at th)."""
+    return rk4_t_scan(f, th, w, h)
 
 
 def integrate_nodes(f, w0, thetas, steps, phases):
@@ -100,11 +93,7 @@ def to_event(f, th, w, guard, h0, iterations: int = 4):
     def g(h):
         return guard(th + h, rk4(f, th, w, h)[0])
 
-    def newton(h, _):
-        val, slope = jax.jvp(g, (h,), (jnp.ones_like(h),))
-        return h - val / slope, None
-
-    h = jax.lax.scan(newton, h0, None, length=iterations)[0]
+    h = newton(g, h0, iterations)
     return th + h, rk4(f, th, w, h)[0]
 
 
