@@ -24,9 +24,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.sim.integrators import rk4
+
 from bipedlab.pytree import pytree
 from bipedlab.sim.events import linear_crossing
-from bipedlab.sim.integrators import rk4
 
 G = 9.81
 
@@ -70,12 +71,20 @@ def stance_flow(p: SlipParams, s):
     return jnp.concatenate([s[2:], acc])
 
 
+def _rk4(f, s, h):
+    """One step of the core RK4 on the autonomous flow ``f(s)``. (The step used to combine the
+    stages as k1 + 2 k2 + 2 k3 + k4; the core's k1 + 2 (k2 + k3) + k4 rounds differently,
+    which moves the spring-mass statistics by up to 1.7e-8 relative through the fitted swing
+    policy: float reassociation, stated in the golden tests.)"""
+    return rk4(lambda x, _: f(x), s, None, h)
+
+
 def stance(p: SlipParams, s_td, dt: float = 1e-4, max_steps: int = 20000):
     """Integrate stance from touchdown state s_td (relative to the foot) until the leg is
     back at rest length while extending (RK4, the crossing linearly interpolated). Returns
     (lift-off state, stance time, ok) where ok is False when the mass hit the ground or the
     stance did not end."""
-    f = lambda s, _: stance_flow(p, s)  # noqa: E731
+    f = lambda s: stance_flow(p, s)  # noqa: E731
 
     def cond(c):
         s, _, k, done = c
@@ -83,7 +92,7 @@ def stance(p: SlipParams, s_td, dt: float = 1e-4, max_steps: int = 20000):
 
     def body(c):
         s, _, k, _ = c
-        sn = rk4(f, s, None, dt)
+        sn = _rk4(f, s, dt)
         ln = jnp.linalg.norm(sn[:2])
         out = (ln >= p.l0) & (jnp.dot(sn[:2], sn[2:]) > 0) | (sn[1] <= 0.0)
         return sn, s, k + 1, out
