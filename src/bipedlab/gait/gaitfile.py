@@ -1,8 +1,15 @@
-"""Gait files: a designed periodic gait as JSON (virtual constraints + fixed point + figures).
+"""Gait files: one versioned JSON schema for every robot, with a per-robot payload.
 
-Fields: ``format`` ("bipedlab-gait/1"), ``robot``, ``H0`` (m x n), ``c`` (n), ``alpha``
-(m x (M+1)), ``theta_plus`` and ``theta_minus`` (rad), ``z_minus`` (the pre-impact fixed point,
-stance coordinates and rates), and free-form ``design`` figures (speed, cost, ...).
+A file is an envelope ``{"format": "bipedlab-gait/2", "robot": NAME, "kind": KIND, "payload":
+{...}}``: ``kind`` names the payload's schema, which the robot package that writes it owns
+(:func:`envelope` and :func:`open_envelope`). Version-1 files, which were the payload alone
+with a format string of their own, are still read: a robot lists its legacy format strings.
+
+The core's own kind, ``"hzd"`` (gaits designed by :mod:`bipedlab.gait.optimize`), has the
+payload ``H0`` (m x n), ``c`` (n), ``alpha`` (m x (M+1)), ``theta_plus`` and ``theta_minus``
+(rad), ``z_minus`` (the pre-impact fixed point, stance coordinates and rates), and free-form
+``design`` figures (speed, cost, ...) (:func:`to_dict`, :func:`from_dict`, :func:`save`,
+:func:`load`).
 """
 from __future__ import annotations
 
@@ -15,16 +22,37 @@ import numpy as np
 
 from bipedlab.control.hzd import VirtualConstraints
 
-FORMAT = "bipedlab-gait/1"
+SCHEMA = "bipedlab-gait"
+VERSION = 2
+FORMAT = f"{SCHEMA}/{VERSION}"
+#: the payload kind of the core's HZD gaits, and the format string of its version-1 files
+HZD = "hzd"
+HZD_V1 = "bipedlab-gait/1"
+
+
+def envelope(robot: str, kind: str, payload: dict) -> dict:
+    """A gait file's JSON object: the current format, the robot, the payload's kind."""
+    return dict(format=FORMAT, robot=robot, kind=kind, payload=payload)
+
+
+def open_envelope(d, source: str, kind: str, legacy: tuple = ()) -> dict:
+    """The payload of a gait file of ``kind`` (with ``robot`` and ``format`` added), or, for a
+    version-1 file whose format is one of ``legacy``, the file itself. ValueError naming the
+    source otherwise."""
+    if isinstance(d, dict) and d.get("format") in legacy:
+        return d
+    if not (isinstance(d, dict) and d.get("format") == FORMAT and d.get("kind") == kind
+            and isinstance(d.get("payload"), dict)):
+        raise ValueError(f"{source}: not a bipedlab gait file (expected format {FORMAT!r} with a {kind!r} payload)")
+    return dict(d["payload"], robot=d.get("robot"), format=FORMAT)
 
 
 def to_dict(robot: str, vc: VirtualConstraints, z_minus, design: dict) -> dict:
-    return dict(
-        format=FORMAT, robot=robot,
+    return envelope(robot, HZD, dict(
         H0=np.asarray(vc.H0).tolist(), c=np.asarray(vc.c).tolist(), alpha=np.asarray(vc.alpha).tolist(),
         theta_plus=float(vc.theta_plus), theta_minus=float(vc.theta_minus),
         z_minus=np.asarray(z_minus).tolist(), design=design,
-    )
+    ))
 
 
 def save(path, robot: str, vc: VirtualConstraints, z_minus, design: dict) -> None:
@@ -34,8 +62,7 @@ def save(path, robot: str, vc: VirtualConstraints, z_minus, design: dict) -> Non
 def from_dict(d: dict, source: str = "gait") -> tuple[VirtualConstraints, jnp.ndarray, dict]:
     """(virtual constraints, pre-impact fixed point, the whole record); ValueError names the
     source and the problem."""
-    if not isinstance(d, dict) or d.get("format") != FORMAT:
-        raise ValueError(f"{source}: not a bipedlab gait file (expected format {FORMAT!r})")
+    d = open_envelope(d, source, HZD, legacy=(HZD_V1,))
     try:
         H0 = np.asarray(d["H0"], float)
         c = np.asarray(d["c"], float)

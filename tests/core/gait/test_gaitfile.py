@@ -32,12 +32,14 @@ def _valid(shipped):
 
 @pytest.mark.parametrize("mutate,needle", [
     (lambda d: d.update(format="other/1"), "not a bipedlab gait file"),
-    (lambda d: d.pop("alpha"), "missing or malformed"),
-    (lambda d: d.update(theta_plus="abc"), "missing or malformed"),
-    (lambda d: d.update(z_minus=d["z_minus"][:-1]), "inconsistent sizes"),
-    (lambda d: d.update(H0=[row[:-1] for row in d["H0"]]), "inconsistent sizes"),
-    (lambda d: d.update(theta_minus=d["theta_plus"] - 0.1), "theta_minus <= theta_plus"),
-    (lambda d: d["alpha"][0].__setitem__(0, float("nan")), "non-finite"),
+    (lambda d: d.update(kind="some-other-robot-payload"), "not a bipedlab gait file"),
+    (lambda d: d.pop("payload"), "not a bipedlab gait file"),
+    (lambda d: d["payload"].pop("alpha"), "missing or malformed"),
+    (lambda d: d["payload"].update(theta_plus="abc"), "missing or malformed"),
+    (lambda d: d["payload"].update(z_minus=d["payload"]["z_minus"][:-1]), "inconsistent sizes"),
+    (lambda d: d["payload"].update(H0=[row[:-1] for row in d["payload"]["H0"]]), "inconsistent sizes"),
+    (lambda d: d["payload"].update(theta_minus=d["payload"]["theta_plus"] - 0.1), "theta_minus <= theta_plus"),
+    (lambda d: d["payload"]["alpha"][0].__setitem__(0, float("nan")), "non-finite"),
 ])
 def test_malformed_records_raise_value_error_naming_the_file(shipped, tmp_path, mutate, needle):
     d = _valid(shipped)
@@ -74,12 +76,32 @@ def test_missing_file(tmp_path):
 ])
 def test_non_finite_fields_are_rejected(shipped, tmp_path, field, value):
     d = _valid(shipped)
+    p = d["payload"]
     if value == "nan":
-        d[field] = (np.asarray(d[field]) * np.nan).tolist()
+        p[field] = (np.asarray(p[field]) * np.nan).tolist()
     else:
-        d[field] = value
+        p[field] = value
     path = tmp_path / "nonfinite.json"
     path.write_text(json.dumps(d))  # writes Infinity / NaN, which json.loads accepts
     with pytest.raises(ValueError) as exc:
         gaitfile.load(path)
     assert str(path) in str(exc.value)
+
+
+def test_version_1_files_still_load(shipped, tmp_path):
+    """A file of the former flat format (the payload alone, format 'bipedlab-gait/1') reads
+    as the same gait."""
+    vc, z, rec = shipped
+    flat = dict(_valid(shipped)["payload"], format=gaitfile.HZD_V1, robot="five-link")
+    path = tmp_path / "v1.json"
+    path.write_text(json.dumps(flat))
+    vc1, z1, rec1 = gaitfile.load(path)
+    np.testing.assert_array_equal(np.asarray(vc1.alpha), np.asarray(vc.alpha))
+    np.testing.assert_array_equal(np.asarray(z1), np.asarray(z))
+    assert rec1["design"] == rec["design"]
+
+
+def test_files_carry_format_robot_and_payload_kind(shipped):
+    d = _valid(shipped)
+    assert d["format"] == "bipedlab-gait/2" and d["robot"] == "five-link" and d["kind"] == gaitfile.HZD
+    assert set(d) == {"format", "robot", "kind", "payload"}

@@ -143,8 +143,8 @@ def _bad_gait_files(tmp_path):
     files = {}
     files["not_json.json"] = "{this is not json"
     files["wrong_format.json"] = json.dumps(dict(d, format="something-else/2"))
-    files["missing_field.json"] = json.dumps({k: v for k, v in d.items() if k != "z_minus"})
-    files["bad_sizes.json"] = json.dumps(dict(d, c=d["c"][:3]))
+    files["missing_field.json"] = json.dumps(dict(d, payload={k: v for k, v in d["payload"].items() if k != "z_minus"}))
+    files["bad_sizes.json"] = json.dumps(dict(d, payload=dict(d["payload"], c=d["payload"]["c"][:3])))
     out = {}
     for name, text in files.items():
         p = tmp_path / name
@@ -168,7 +168,8 @@ def test_gait_files_unusable_for_the_robot_exit_2(case, tmp_path, capsys, monkey
 
     monkeypatch.setattr(hz, "walk", reached)
     vc, z, rec = gaitfile.shipped("bipedlab.robots.five_link", "five_link_0.8")
-    d = gaitfile.to_dict("five-link", vc, z, rec["design"])
+    d = gaitfile.to_dict("five-link", vc, z, rec["design"])["payload"]
+    d.update(format=gaitfile.HZD_V1, robot="five-link")  # a version-1 file: the payload alone
     if case == "theta_minus_inf":
         d["theta_minus"] = float("inf")
     elif case == "c_nan":

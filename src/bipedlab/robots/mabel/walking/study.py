@@ -9,7 +9,7 @@ order) and under the compliant HZD controller (eq. 48, restricted map).
 PD + feedforward, I/O linearisation with hybrid-invariance corrections, or its decentralised
 form; optional push (Exp. 2) and impact scaling (Section VI-B).
 
-Gaits are JSON records (:data:`FORMAT`) holding the decision vector, the constraints, the
+Gaits are gait files (:mod:`bipedlab.gait.gaitfile`, payload kind :data:`KIND`) holding the decision vector, the constraints, the
 fixed point, the u* regression and the design figures; ``nominal``, ``efficient`` and ``fast``
 ship with the package.
 """
@@ -33,7 +33,9 @@ from bipedlab.robots.mabel.walking.zero_dynamics import robot_mass
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import loop as sw
 
-FORMAT = "bipedlab-mabel-gait/1"
+#: payload kind of MABEL gait files, and the format string of their version-1 files
+KIND = "mabel-compliant-hzd"
+FORMAT_V1 = "bipedlab-mabel-gait/1"
 GAITS = ("nominal", "efficient", "fast")
 CONTROLLERS = ctl.KINDS
 OUTPUT_NAMES = vcm.OUTPUTS
@@ -54,18 +56,18 @@ def _vc_from(d: dict) -> vcm.Constraints:
 
 
 def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: str, poincare: dict | None) -> dict:
-    return dict(format=FORMAT, robot="mabel", name=name, speed=speed, cost=cost, x=np.asarray(design.x).tolist(),
+    return gaitfile.envelope("mabel", KIND, dict(
+                name=name, speed=speed, cost=cost, x=np.asarray(design.x).tolist(),
                 constraints=_vc_dict(design.vc), z_minus=np.asarray(design.z_minus).tolist(),
                 z_plus=np.asarray(design.z_plus).tolist(),
                 feedforward=dict(beta=np.asarray(gains.beta).tolist(), bounds=np.asarray(gains.beta_bounds).tolist(),
                                  signs=np.asarray(gains.signs).tolist()),
-                design=design.figures, poincare=poincare)
+                design=design.figures, poincare=poincare))
 
 
 def from_record(d: dict, source: str):
     """(constraints, gains, record); ValueError naming the source and the problem."""
-    if not isinstance(d, dict) or d.get("format") != FORMAT:
-        raise ValueError(f"{source}: not a MABEL gait file (expected format {FORMAT!r})")
+    d = gaitfile.open_envelope(d, source, KIND, legacy=(FORMAT_V1,))
     try:
         vc = _vc_from(d["constraints"])
         ff = d["feedforward"]
