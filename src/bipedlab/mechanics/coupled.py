@@ -18,24 +18,27 @@ constrained variant in coordinates ``p``.
 """
 from __future__ import annotations
 
-import dataclasses
 from typing import Sequence
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree, static_field
 from bipedlab.mechanics import dynamics as dyn
 from bipedlab.mechanics import kinematics as kin
 from bipedlab.mechanics.tree import Model
 
 
-def _static(a) -> tuple:
+def static_matrix(a) -> tuple:
+    """A constant matrix as nested tuples of floats (hashable: a static pytree field)."""
     return tuple(tuple(float(v) for v in row) for row in np.asarray(a, float))
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+_static = static_matrix
+
+
+@pytree
 class Coupled:
     """Tree + linear transmission (a frozen pytree).
 
@@ -47,10 +50,10 @@ class Coupled:
     tree: Model
     rotor_inertia: jax.Array
     weight: jax.Array
-    T: tuple = dataclasses.field(metadata=dict(static=True))
-    R: tuple = dataclasses.field(metadata=dict(static=True))
-    coord_names: tuple[str, ...] = dataclasses.field(metadata=dict(static=True))
-    rotor_names: tuple[str, ...] = dataclasses.field(metadata=dict(static=True))
+    T: tuple = static_field()
+    R: tuple = static_field()
+    coord_names: tuple[str, ...] = static_field()
+    rotor_names: tuple[str, ...] = static_field()
 
     @property
     def n(self) -> int:
@@ -62,8 +65,6 @@ class Coupled:
         except ValueError:
             raise ValueError(f"unknown coordinate {name!r}; known: {', '.join(self.coord_names)}") from None
 
-    def replace(self, **changes) -> "Coupled":
-        return dataclasses.replace(self, **changes)
 
 
 def coupled(tree: Model, T, rotors: Sequence[tuple[str, float, Sequence[float]]], coord_names: Sequence[str],
@@ -184,7 +185,7 @@ def point_force(model: Coupled, fr: kin.Frames, point: int, F) -> list:
 def point_motion(model: Coupled, fr: kin.Frames, vel: kin.Velocities, point: int):
     """(position, velocity) of a tree point as tuples of scalars."""
     tree = model.tree
-    p, v, _ = kin._point_velocity_accel(tree, fr, vel, tree.point_bodies[point], kin._point_offset(tree, point))
+    p, v, _ = kin.point_velocity_accel(tree, fr, vel, tree.point_bodies[point], kin._point_offset(tree, point))
     return p, v
 
 

@@ -226,3 +226,8 @@ def body_poses(model: Model, q) -> tuple[jax.Array, jax.Array, jax.Array]:
         jnp.stack([jnp.stack(o) for o in fr.origin]),
         jnp.stack([jnp.stack(c) for c in fr.com]),
     )
+
+
+#: Public name of :func:`_point_velocity_accel`: world (position, velocity, acceleration) of a
+#: point at ``offset`` on ``body``.
+point_velocity_accel = _point_velocity_accel

@@ -76,7 +76,7 @@ def test_cable_differentials_with_rigid_cables():
     r = tb.RADII
     rng = np.random.default_rng(0)
     T = np.asarray(mm.hopping_model().body.T)
-    lk = tr._linkage_rates()
+    lk = tr.linkage_rates()
     for _ in range(5):
         la, ls, bsp = rng.uniform(-3, 3), rng.uniform(-1, 1), rng.uniform(-0.5, 0.5)
         local = np.array([la, ls, bsp, rng.normal(), rng.normal()])

@@ -27,12 +27,12 @@ on B_spring; cable stretch (eqs. 25-27); and the compliant ground at each toe.
 """
 from __future__ import annotations
 
-import dataclasses
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree, static_field
 from bipedlab.mechanics import Body, Point, build_model
 from bipedlab.contact import compliant as cg
 from bipedlab.mechanics import coupled as cp
@@ -71,7 +71,7 @@ def _body(kind, parent, side=None, offset=(0.0, 0.0)):
 
 def _tree_map() -> np.ndarray:
     """T with tree coordinates (x, y, tor, then per leg thigh, shin-rel-thigh, csp, csh) = T q_h."""
-    rates_csp = tr._linkage_rates()["Csp"]
+    rates_csp = tr.linkage_rates()["Csp"]
     T = np.zeros((11, 13))
     T[0, 0] = T[1, 1] = T[2, 2] = 1.0
     for k, s in enumerate(tb.SIDES):
@@ -118,8 +118,7 @@ def rigid_map() -> np.ndarray:
     return E
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Drivetrain:
     """Actuator and compliance parameters (leaves). Per actuator (tables.ACTUATORS order):
     kt, bias (N m), friction (N m s/rad), cable_k (N m/rad), cable_d (N m s/rad); per leg
@@ -138,8 +137,6 @@ class Drivetrain:
     kvd2: jax.Array
     torque_limit: jax.Array
 
-    def replace(self, **changes) -> "Drivetrain":
-        return dataclasses.replace(self, **changes)
 
 
 def drivetrain() -> Drivetrain:
@@ -153,8 +150,7 @@ def drivetrain() -> Drivetrain:
     )
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class Mabel:
     """A MABEL model (frozen pytree): the coupled mechanism in the variant's coordinates,
     the drivetrain, the ground, and the static map E with ``q_h = E q``."""
@@ -162,7 +158,7 @@ class Mabel:
     body: cp.Coupled
     drive: Drivetrain
     ground: cg.CompliantGround
-    E: tuple = dataclasses.field(metadata=dict(static=True))
+    E: tuple = static_field()
 
     @property
     def n(self) -> int:
@@ -176,8 +172,6 @@ class Mabel:
     def coord_names(self) -> tuple[str, ...]:
         return self.body.coord_names
 
-    def replace(self, **changes) -> "Mabel":
-        return dataclasses.replace(self, **changes)
 
 
 def hopping_model(ground=None, drive=None) -> Mabel:
@@ -185,14 +179,14 @@ def hopping_model(ground=None, drive=None) -> Mabel:
     w = np.zeros(13)
     w[1] = tb.BOOM["mass"] * 9.81 * tb.BOOM["com"] / tb.BOOM["radius"]
     body = cp.coupled(_tree(), _tree_map(), _rotors(), COORDS_13, weight=w)
-    return Mabel(body, drive or drivetrain(), ground or cg.make(**tb.GROUND), cp._static(np.eye(13)))
+    return Mabel(body, drive or drivetrain(), ground or cg.make(**tb.GROUND), cp.static_matrix(np.eye(13)))
 
 
 def rigid_model(ground=None, drive=None) -> Mabel:
     """The 9-DoF rigid-cable model (HZD paper, q_e)."""
     full = hopping_model(ground, drive)
     E = rigid_map()
-    return full.replace(body=cp.restrict(full.body, E, COORDS_9), E=cp._static(E))
+    return full.replace(body=cp.restrict(full.body, E, COORDS_9), E=cp.static_matrix(E))
 
 
 # ----- maps between coordinates ------------------------------------------------------------

@@ -36,7 +36,7 @@ from bipedlab.robots.mabel import tables as tb
 LOCAL = ("la", "ls", "bsp", "mla", "mls")
 
 
-def _linkage_rates() -> dict:
+def linkage_rates() -> dict:
     """Rates of A_th, A_sh, B, C_sp per unit (la, ls) from the differential equations."""
     r = tb.RADII
     # unknowns v = [A_th, A_sh, B, C_sp]; equations in order: thigh diff, shin diff, two C_sp links
@@ -60,7 +60,7 @@ def _idler(rA, rB, rD, a, b):
 def pulley_rates() -> dict:
     """{pulley: (coefficients over LOCAL)} of each rotor's rate relative to the torso."""
     r = tb.RADII
-    lk = _linkage_rates()
+    lk = linkage_rates()
     e = {k: np.eye(5)[i] for i, k in enumerate(LOCAL)}
     B = lk["B"]
     a_sp = ((r["Asp"] + r["Bsp"]) * lk["Csp"] - r["Bsp"] * e["bsp"]) / r["Asp"]

@@ -79,8 +79,8 @@ def test_hop_log_starts_at_rest_and_the_robot_lands():
     q = hf.measured_coordinates(e)
     assert k0 > 0 and np.ptp(q[: k0 + 1], axis=0).max() == 0.0
     assert np.all(e.U(sysid.params.ACTUATORS)[:k0] == 0.0)
-    assert q[:, hf._H["bsp_L"]].max() > 0.1                        # the spring compresses on landing
-    assert q[:, hf._H["y"]].min() < q[0, hf._H["y"]] - 0.03
+    assert q[:, hf.INDEX["bsp_L"]].max() > 0.1                        # the spring compresses on landing
+    assert q[:, hf.INDEX["y"]].min() < q[0, hf.INDEX["y"]] - 0.03
     assert float(e.meta["boom_radius"]) == tb.BOOM["radius"]
     np.testing.assert_allclose(hf.initial_coordinates(e), q[0])
     assert jnp.asarray(q).shape[1] == 13

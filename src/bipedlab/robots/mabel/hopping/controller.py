@@ -20,18 +20,17 @@ vertical boom rate rises above -0.01 rad/s (the bottom of the landing, the sampl
 """
 from __future__ import annotations
 
-import dataclasses
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree
 FLIGHT, TOUCHDOWN, KICKOFF, LEFT_UP, RIGHT_UP, RETRACT = range(6)
 PHASE_NAMES = ("I flight", "II touchdown", "III kick-off", "IV_a left lift-off", "IV_b right lift-off", "V retract")
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class HopParams:
     """Controller parameters (float64 leaves; angles in rad).
 
@@ -60,8 +59,6 @@ class HopParams:
     period: jax.Array
     torque_limit: jax.Array
 
-    def replace(self, **changes) -> "HopParams":
-        return dataclasses.replace(self, **changes)
 
 
 def paper_params(**overrides) -> HopParams:
@@ -85,8 +82,7 @@ def paper_params(**overrides) -> HopParams:
     return HopParams(**{k: jnp.asarray(val, dtype=jnp.float64) for k, val in v.items()})
 
 
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class HopState:
     """Controller memory: phase, time (s), time entering V, LA references frozen at III->IV,
     previous quantised h, filtered h-dot, current desired torso angle, boom angle at the last

@@ -140,7 +140,7 @@ def _plant_step(advance, dt: float, substeps: int):
     return plant_step
 
 
-def _loopfell(params, before, y, u, plant: Plant):
+def _loop_fell(params, before, y, u, plant: Plant):
     return plant.dead
 
 

@@ -50,6 +50,7 @@ from bipedlab.robots.mabel.sysid import params as P
 from bipedlab.robots.mabel.sysid import rigs
 from bipedlab.robots.mabel.sysid.logs import HOP_ENCODERS, KINDS, Experiment, motor_encoder
 from bipedlab.robots.mabel.sysid.sensors import PERIOD, Sensors
+from bipedlab.sim import loop
 
 _H = {c: i for i, c in enumerate(mm.COORDS_13)}
 #: Hop simulation step and steps per 1 ms sample (as in studies.hop_mabel).
@@ -283,17 +284,41 @@ def balance_experiments(p: P.MabelParams, sensors: Sensors, design: Design = Des
 
 
 # ----- Section VIII -------------------------------------------------------------------------
+def _hop_sensor(params, sensor_state, x, t):
+    m, hp, W = params
+    return sensor_state, hm.sense(m, hp, x)
+
+
+def _hop_controller(params, c, y, t):
+    m, hp, W = params
+    return hop.update(hp, c, *y)
+
+
+def _hop_noise(params, x, t):
+    """The amplifier noise of the sample starting at t (row k of W, k = t / PERIOD)."""
+    m, hp, W = params
+    return W[jnp.round(t / PERIOD).astype(int)]
+
+
+def _hop_plant_step(params, x, u, w, h, t):
+    m, hp, W = params
+    return jax.lax.fori_loop(0, HOP_SUBSTEPS, lambda _, x: md.step(m, x, u + w, HOP_DT), x)
+
+
+def _hop_log(params, x_before, y, u, x, c):
+    return x_before, u
+
+
+#: The hopping study's closed loop with amplifier noise added to each held command; params
+#: (model, hopping parameters, noise W (steps, 4)); logs the state at t_k and the command u_k.
+HOP_LOOP = loop.SampledLoop(plant_step=_hop_plant_step, sensor=_hop_sensor, controller=_hop_controller,
+                            fell=lambda params, x_before, y, u, x: jnp.asarray(False), sample_time=PERIOD,
+                            log=_hop_log, exogenous=_hop_noise)
+
+
 def _hop_loop(m: mm.Mabel, p: hop.HopParams, x0, c0, W):
-    """Closed loop with amplifier noise W (steps, 4): states at t_k and commands u_k. The
-    hopping study's control sample, the noise added to each held command."""
-
-    def sample(carry, w):
-        x, c = carry
-        xn, c_new, u = hm.control_sample(m, p, x, c, HOP_DT, HOP_SUBSTEPS,
-                                         lambda m_, x_, u_, h: md.step(m_, x_, u_ + w, h))
-        return (xn, c_new), (x, u)
-
-    return jax.lax.scan(sample, (x0, c0), W)[1]
+    """Closed loop with amplifier noise W (steps, 4): states at t_k and commands u_k."""
+    return loop.run(HOP_LOOP, (m, p, W), loop.initial_state(x0, None, c0), W.shape[0])[1]
 
 
 _hop_loop_jit = jax.jit(_hop_loop)

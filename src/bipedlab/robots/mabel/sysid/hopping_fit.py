@@ -47,7 +47,9 @@ from bipedlab.robots.mabel.sysid import rigs
 from bipedlab.robots.mabel.sysid.experiments import HOP_DT, HOP_SUBSTEPS
 from bipedlab.robots.mabel.sysid.logs import HOP_ENCODERS, Experiment, motor_encoder
 
-_H = {c: i for i, c in enumerate(mm.COORDS_13)}
+#: Index of each 13-DoF coordinate.
+INDEX = {c: i for i, c in enumerate(mm.COORDS_13)}
+_H = INDEX
 #: A parameter counts as identified when its 1-sigma relative error is below this.
 IDENTIFIABLE = 0.1
 #: Variables of stage 2: (name, how it is applied), all positive (fitted in log scale).

@@ -39,6 +39,7 @@ import dataclasses
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.pytree import pytree
 from bipedlab.contact import compliant as cg
 from bipedlab.robots.mabel import model as mm
 from bipedlab.robots.mabel import tables as tb
@@ -94,7 +95,7 @@ def rotor_inertia_manufacturer(actuator: str) -> float:
     return float(tb.ROTOR_INERTIA[actuator[:3]])
 
 
-@dataclasses.dataclass(frozen=True)
+@pytree
 class MabelParams:
     """One value of every identified parameter (numpy float64; see the module docstring for
     the units). Arrays per actuator follow ``tables.ACTUATORS``; per leg ``tables.SIDES``."""
@@ -116,8 +117,6 @@ class MabelParams:
     ground: dict
     torso_com_offset: np.ndarray
 
-    def replace(self, **changes) -> "MabelParams":
-        return dataclasses.replace(self, **changes)
 
 
 

@@ -226,7 +226,7 @@ def validate(est: P.MabelParams, fits: dict) -> dict:
         e, hf = fits["hopping"]
         q = hopping_fit.measured_coordinates(e)[hopping_fit.release_index(e):]
         qs = hopping_fit.replay_log(e, est)
-        cols = [hopping_fit._H[c] for c in ("tor", "la_L", "ls_L", "la_R", "ls_R")]
+        cols = [hopping_fit.INDEX[c] for c in ("tor", "la_L", "ls_L", "la_R", "ls_R")]
         out["hopping"] = float(np.rad2deg(np.sqrt(np.mean((qs[:, cols] - q[:, cols]) ** 2))))
         for a in P.ACTUATORS:
             sim = hopping_fit.simulate_cable(e, est, a)

@@ -30,13 +30,13 @@ u_k applied over [t_k, t_k+1).
 """
 from __future__ import annotations
 
-import dataclasses
 
 import jax
 import jax.numpy as jnp
 import numpy as np
 from scipy import signal
 
+from bipedlab.pytree import pytree
 from bipedlab.mechanics import coupled as cp
 from bipedlab.robots.mabel import model as mm
 from bipedlab.robots.mabel import tables as tb
@@ -63,8 +63,7 @@ def motor_rig(J: float, mu: float, tau, h: float = PERIOD, omega0: float = 0.0, 
 
 
 # ----- one leg, torso fixed ---------------------------------------------------------------
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class LegRig:
     """One leg on the fixed torso, B_spring blocked, rigid cables (a frozen pytree).
 
@@ -78,8 +77,6 @@ class LegRig:
     bias: jax.Array
     friction: jax.Array
 
-    def replace(self, **changes) -> "LegRig":
-        return dataclasses.replace(self, **changes)
 
 
 #: Actuators of each leg in rig order (q_mLA, q_mLS).
@@ -162,8 +159,7 @@ def linearisation(rig: LegRig, q):
 
 
 # ----- one rotor and its cable, joint side measured ----------------------------------------
-@jax.tree_util.register_dataclass
-@dataclasses.dataclass(frozen=True)
+@pytree
 class RotorCable:
     """Parameters of one motor's rotor and cable: J (kg m^2, alpha J^rotor,man), kt, bias
     (N m), mu (N m s/rad), K (cable_k, N m/rad), D (cable_d, N m s/rad), torque limit (N m)."""
@@ -176,8 +172,6 @@ class RotorCable:
     D: jax.Array
     limit: jax.Array
 
-    def replace(self, **changes) -> "RotorCable":
-        return dataclasses.replace(self, **changes)
 
 
 def rotor_cable(rc: RotorCable, u, r, tor, qm0, substeps: int = 4, h: float = PERIOD) -> jax.Array:
