@@ -128,12 +128,35 @@ def test_one_rk4(what):
     assert not hits, hits
 
 
-def test_one_event_locator_and_one_closed_loop():
-    """Event-location methods and the sampled-data loop are defined once, in sim/."""
-    locators = [d for d in _defs(r"(flow_to_event|regula_falsi|bisection|newton|secant)") if not d.startswith("bipedlab.sim.")]
+def test_one_event_locator():
+    """Event-location methods are defined once, in sim/events.py."""
+    locators = [d for d in _defs(r"(flow_to_event|regula_falsi|bisection|bisection_step|newton|secant|locate\w*)")
+                if not d.startswith("bipedlab.sim.")]
     assert not locators, locators
-    loops = [d for d in _defs(r"(closed_loop|sampled_loop|run_loop)") if not d.startswith("bipedlab.sim.")]
-    assert not loops, loops
+
+
+#: robots whose controllers run at a sample rate: their loops are built on sim.loop
+SAMPLED = ["five_link", "mabel", "atrias", "seven_link"]
+
+
+@pytest.mark.parametrize("robot", SAMPLED)
+def test_sampled_loops_are_the_core_loop(robot):
+    """A robot with a sampled-data controller builds its closed loops from
+    bipedlab.sim.loop (directly or through sim.rollout), and writes no loop driver of its
+    own: no module of it scans a controller's samples with its own ``lax.scan`` driver."""
+    users, own = [], []
+    for mod, path in _modules():
+        if not mod.startswith(f"bipedlab.robots.{robot}"):
+            continue
+        imps = set(_imports(path))
+        if {"bipedlab.sim.loop", "bipedlab.sim.rollout", "bipedlab.sim.loop.SampledLoop"} & imps or any(
+                i.startswith("bipedlab.sim.loop") or i.startswith("bipedlab.sim.rollout") for i in imps):
+            users.append(mod)
+        text = path.read_text()
+        if re.search(r"def (make_runner|make_chunk|sample)\(", text) and "SampledLoop" not in text:
+            own.append(mod)
+    assert users, f"no module of robots/{robot} uses bipedlab.sim.loop"
+    assert not own, own
 
 
 def test_one_container_idiom():

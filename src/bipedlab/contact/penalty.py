@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.mechanics import kinematics as kin
-from bipedlab.mechanics._fusion import materialize
+from bipedlab.mechanics.fusion import materialize
 from bipedlab.mechanics.tree import Model
 
 
@@ -55,9 +55,9 @@ def contact_generalized_force(model: Model, ground: PenaltyGround, fr, vel, poin
     out: dict = {}
     for k in points:
         b = model.point_bodies[k]
-        p, v, _ = kin._point_velocity_accel(model, fr, vel, b, kin._point_offset(model, k))
+        p, v, _ = kin.point_velocity_accel(model, fr, vel, b, kin.point_offset(model, k))
         F = penalty_force(ground, p, v)
-        for j, val in kin._generalized_force(model, fr, b, p, F).items():
+        for j, val in kin.generalized_force(model, fr, b, p, F).items():
             out[j] = val if j not in out else out[j] + val
     return out
 
@@ -69,7 +69,7 @@ def contact_forces(model: Model, ground: PenaltyGround, q, qd, points: Sequence[
     out = []
     for name in points:
         k = model.point_index(name)
-        p, v, _ = kin._point_velocity_accel(model, fr, vel, model.point_bodies[k], kin._point_offset(model, k))
+        p, v, _ = kin.point_velocity_accel(model, fr, vel, model.point_bodies[k], kin.point_offset(model, k))
         out.append(jnp.stack(penalty_force(ground, p, v)))
     return jnp.stack(out)
 

@@ -88,3 +88,7 @@ def chain(theta, breaks, alphas):
     a = alphas[idx]
     s, ds = phase_coordinate(theta, breaks[idx], breaks[idx + 1])
     return bezier(a, s), bezier_d(a, s) * ds, bezier_dd(a, s) * ds * ds
+
+
+#: Public name of the Bernstein basis (M + 1 values at s), for fitting Bézier coefficients.
+bernstein = _bernstein

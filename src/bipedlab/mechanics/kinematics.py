@@ -231,3 +231,9 @@ def body_poses(model: Model, q) -> tuple[jax.Array, jax.Array, jax.Array]:
 #: Public name of :func:`_point_velocity_accel`: world (position, velocity, acceleration) of a
 #: point at ``offset`` on ``body``.
 point_velocity_accel = _point_velocity_accel
+#: Public names of the frame-level building blocks (given :func:`frames` / :func:`velocities`),
+#: for contact models and robots that assemble point terms themselves.
+point_world = _point_world
+point_offset = _point_offset
+jacobian_columns = _jacobian_columns
+generalized_force = _generalized_force

@@ -14,7 +14,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from bipedlab.mechanics._fusion import stage_barriers
+from bipedlab.mechanics.fusion import stage_barriers
 from bipedlab.sim import integrators, loop
 from bipedlab.sim.loop import FELL, NONFINITE, OK, STATUS_NAMES, SampledLoop  # noqa: F401
 

@@ -1,4 +1,5 @@
-"""Closed-loop running of the ATRIAS-like robot over unobserved terrain (running paper, IV).
+"""Closed-loop running of the ATRIAS-like robot over unobserved terrain (running paper, IV),
+on the core's sampled-data loop (:mod:`bipedlab.sim.loop`).
 
 The plant (:mod:`bipedlab.robots.atrias.robot`, full model with foot masses and the Geyer-Herr
 ground) is integrated by semi-implicit Euler with implicit ground damping at ``DT`` = 0.2 ms,
@@ -6,15 +7,30 @@ ground) is integrated by semi-implicit Euler with implicit ground damping at ``D
 the study's report (apex statistics at 0.2 ms agree with 0.1 ms within the run-to-run noise;
 explicit integration of the same ground would need steps below about 1e-5 s).
 
-Sensing: the controller sees q, q' (optionally with uniform noise of +-3 deg, +-3 deg/s,
-+-3 cm, +-3 cm/s, redrawn every 3 ms) and the foot contact switches, all delayed by a whole
-number of samples. Status: OK, FELL (COM less than 0.45 m above the ground below it, or the
-trunk pitched beyond 60 deg), NONFINITE. Apexes (recorded up to MAX_APEX per trial) are those
-of the whole robot's COM, trunk and feet: the bounce height is its apex above the ground of the
-last stance foot, the speed its forward velocity there.
+The loop's stages (one plant step of :class:`SampledLoop` per control sample, ``substeps`` = 1:
+it runs the ``RunConfig.substeps`` Euler steps and then the per-sample apex bookkeeping):
 
-:func:`make_chunk` builds one compiled function advancing a batch of trials by a fixed number
-of samples; the caller loops over chunks (progress bar) re-using it.
+* :func:`sensor` - the controller sees q, q' (optionally with uniform noise of +-3 deg,
+  +-3 deg/s, +-3 cm, +-3 cm/s, redrawn every 3 ms: drawn each sample from the trial's key
+  folded with the sample index // 3, so no held value; :func:`bipedlab.sim.sensors.held_noise`
+  gives the same draws but its select changes the compiled arithmetic, by 1e-11 in the apex
+  records) and the foot contact switches, all delayed by a whole number of samples
+  (:class:`bipedlab.sim.sensors.Delay`, exact);
+* :func:`controller` - :func:`bipedlab.robots.atrias.controller.control` with its
+  :class:`~bipedlab.robots.atrias.controller.CtrlState`, keeping the leg-angle target and the
+  previous stance leg for the log;
+* :func:`plant_step` - the sub-steps and the bookkeeping on the true state (:class:`Plant`);
+* :func:`fell` - the COM less than 0.45 m above the ground below it, or the trunk pitched
+  beyond 60 deg; the core adds NONFINITE and freezes the plant at the first failure.
+
+Apexes (recorded up to MAX_APEX per trial) are those of the whole robot's COM, trunk and feet:
+the bounce height is its apex above the ground of the last stance foot, the speed its forward
+velocity there. Time is computed from sample counters ((k + 1) dt substeps), not from the loop's
+accumulated ``LoopState.t``.
+
+Per-trial parameters are :class:`Trial` (terrain, random key); the robot and controller
+parameters are closed over. :func:`make_chunk` builds one compiled function advancing a batch
+of trials by a fixed number of samples; the caller loops over chunks (progress bar) re-using it.
 """
 from __future__ import annotations
 
@@ -29,13 +45,15 @@ from bipedlab.robots.atrias import robot as at
 from bipedlab.contact import stick_slip as ss
 from bipedlab.contact import terrain as tr
 from bipedlab.pytree import pytree
+from bipedlab.sim import loop as sl
+from bipedlab.sim import sensors
 
 DT = 2e-4
 SUBSTEPS = 5
 CONTROL_DT = DT * SUBSTEPS
 NOISE_EVERY = 3
-OK, FELL, NONFINITE = 0, 1, 2
-STATUS_NAMES = {OK: "ok", FELL: "fell", NONFINITE: "non-finite"}
+OK, FELL, NONFINITE = sl.OK, sl.FELL, sl.NONFINITE
+STATUS_NAMES = sl.STATUS_NAMES
 MAX_APEX = 96
 NOISE_AMP = np.array([0.03, 0.03, np.deg2rad(3), np.deg2rad(3), np.deg2rad(3), 0.03, 0.03,
                       0.03, 0.03, np.deg2rad(3), np.deg2rad(3), np.deg2rad(3), 0.03, 0.03])
@@ -54,36 +72,58 @@ class RunConfig:
 
 
 @pytree
-class Carry:
+class Trial:
+    """Per-trial parameters of the loop: the terrain and the noise key."""
+
+    terrain: tr.Terrain
+    key: jax.Array
+
+
+@pytree
+class Plant:
+    """The plant state: the robot (:class:`~bipedlab.robots.atrias.robot.SimState`), the GRFs
+    of the last sub-step (N, for the log), the sample counter and the apex bookkeeping."""
+
     s: at.SimState
-    cs: rc.CtrlState
-    buf: jax.Array          # (delay + 1, 16) measurement buffer
-    k: jax.Array
-    status: jax.Array
-    ydot_prev: jax.Array
+    grf: jax.Array          # (2, 2) GRF of each foot at the last sub-step (N)
+    k: jax.Array            # samples done
+    ydot_prev: jax.Array    # COM vertical velocity at the previous sample (m/s)
     armed: jax.Array        # a foot touched since the last recorded apex
-    last_ground: jax.Array
-    apex_bounce: jax.Array  # (MAX_APEX,)
-    apex_speed: jax.Array
-    apex_y: jax.Array
-    apex_x: jax.Array
+    last_ground: jax.Array  # ground height below the last stance foot (m)
+    apex_bounce: jax.Array  # (MAX_APEX,) COM apex above last_ground (m)
+    apex_speed: jax.Array   # (MAX_APEX,) forward COM speed at the apex (m/s)
+    apex_y: jax.Array       # (MAX_APEX,) COM apex height (m)
+    apex_x: jax.Array       # (MAX_APEX,) COM x at the apex (m)
     n_apex: jax.Array
-    pitch_sq: jax.Array
-    pitch_n: jax.Array
+    pitch_sq: jax.Array     # sum of squared pitch errors after 1 s (rad^2)
+    pitch_n: jax.Array      # number of samples in pitch_sq
 
 
-def initial_carry(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig, y_apex=1.05, speed=5.0):
-    """Start at the target apex with the legs mirrored, leg 0 about to land."""
-    th = cp.theta_star
-    g0 = rc.landing_hip_angle(cp, th, slip_angle0(cp))
-    s = at.initial_state(rp, 0.0, y_apex, speed, th, float(g0), float(2 * np.pi - g0), 0.75, 0.6)
-    z = jnp.concatenate([s.q, s.qd, jnp.zeros(2)])
-    buf = jnp.tile(z, (cfg.delay + 1, 1))
-    zf = jnp.zeros(MAX_APEX)
-    i32 = lambda v: jnp.asarray(v, jnp.int32)
-    f64 = lambda v: jnp.asarray(v, jnp.float64)
-    return Carry(s, rc.init_state(cp, 0), buf, i32(0), i32(OK), f64(0.0), jnp.asarray(False), f64(0.0), zf, zf, zf, zf, i32(0),
-                 f64(0.0), f64(0.0))
+@pytree
+class SensorState:
+    """Sample counter (for the noise) and the delay line (None without delay)."""
+
+    k: jax.Array
+    delay: sensors.Delay | None
+
+
+@pytree
+class Sensed:
+    """What the controller receives: the (delayed, noisy) measurement and the sample index."""
+
+    meas: rc.Meas
+    k: jax.Array
+
+
+@pytree
+class Ctrl:
+    """Controller state: the controller's own, the last leg-angle target alpha (rad), the
+    stance leg before the last sample and the samples done (for the log's time)."""
+
+    cs: rc.CtrlState
+    alpha: jax.Array
+    leg: jax.Array
+    k: jax.Array
 
 
 def slip_angle0(cp):
@@ -91,67 +131,87 @@ def slip_angle0(cp):
     return slip.policy_angle(cp.policy, 0.0)
 
 
+def initial_state(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig, y_apex=1.05, speed=5.0) -> sl.LoopState:
+    """Start at the target apex with the legs mirrored, leg 0 about to land."""
+    th = cp.theta_star
+    g0 = rc.landing_hip_angle(cp, th, slip_angle0(cp))
+    s = at.initial_state(rp, 0.0, y_apex, speed, th, float(g0), float(2 * np.pi - g0), 0.75, 0.6)
+    z = jnp.concatenate([s.q, s.qd, jnp.zeros(2)])
+    zf = jnp.zeros(MAX_APEX)
+    i32 = lambda v: jnp.asarray(v, jnp.int32)
+    f64 = lambda v: jnp.asarray(v, jnp.float64)
+    x = Plant(s, jnp.zeros((2, 2)), i32(0), f64(0.0), jnp.asarray(False), f64(0.0), zf, zf, zf, zf, i32(0),
+              f64(0.0), f64(0.0))
+    sens = SensorState(i32(0), sensors.delay_init(z, cfg.delay) if cfg.delay else None)
+    cs = rc.init_state(cp, 0)
+    ctrl = Ctrl(cs, f64(0.0), cs.leg, i32(0))
+    return sl.initial_state(x, sens, ctrl)
+
+
 def _measure(rp, s, grf):
     contact = (grf[:, 1] > 0).astype(s.q.dtype)
     return jnp.concatenate([s.q, s.qd, contact])
 
 
-def make_step(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig):
-    """One controller sample for one trial: (carry, terrain, key) -> (carry, log)."""
+def make_loop(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig) -> sl.SampledLoop:
+    """The closed loop's stages for one trial (params: :class:`Trial`)."""
     gp = at.ground_params(rp)
 
-    def sample(c: Carry, terr, key):
-        # measurement (of the state after the previous sample), noise, delay
-        grf_now = _grf_of(rp, gp, terr, c.s)
-        z = _measure(rp, c.s, grf_now)
-        if cfg.noise:
-            kk = jax.random.fold_in(key, c.k // NOISE_EVERY)
-            n = jax.random.uniform(kk, (14,), minval=-1.0, maxval=1.0) * NOISE_AMP
+    def sensor(p: Trial, ss_: SensorState, x: Plant, t):
+        # measurement of the state after the previous sample, noise, delay
+        z = _measure(rp, x.s, _grf_of(rp, gp, p.terrain, x.s))
+        if cfg.noise:  # redrawn every NOISE_EVERY samples: the same key for the samples between
+            n = jax.random.uniform(jax.random.fold_in(p.key, ss_.k // NOISE_EVERY), (14,), minval=-1.0,
+                                   maxval=1.0) * NOISE_AMP
             z = z.at[:14].add(n)
-        buf = jnp.concatenate([c.buf[1:], z[None]], axis=0)
-        zd = buf[0]
-        meas = rc.Meas(zd[:7], zd[7:14], zd[14:16], jnp.zeros(2))
-        cs, u, alpha = rc.control(cp, c.cs, meas)
+        delay = ss_.delay
+        if delay is not None:
+            delay, z = sensors.delay_push(delay, z)
+        meas = rc.Meas(z[:7], z[7:14], z[14:16], jnp.zeros(2))
+        return SensorState(ss_.k + 1, delay), Sensed(meas, ss_.k)
+
+    def controller(p: Trial, c: Ctrl, y: Sensed, t):
+        cs, u, alpha = rc.control(cp, c.cs, y.meas)
+        return Ctrl(cs, alpha, c.cs.leg, y.k + 1), u
+
+    def plant_step(p: Trial, x: Plant, u, d, h, t):
+        terr = p.terrain
 
         def sub(_, carry):
             s, _g = carry
             return at.step(rp, gp, terr, s, u, cfg.dt)
 
-        s, grf = jax.lax.fori_loop(0, cfg.substeps, sub, (c.s, jnp.zeros((2, 2))))
+        s, grf = jax.lax.fori_loop(0, cfg.substeps, sub, (x.s, jnp.zeros((2, 2))))
         # bookkeeping on the true state
         q, qd = s.q, s.qd
         com, vcom = system_com(rp, q, qd)
         inc = grf[:, 1] > 0
         gfoot = jnp.stack([tr.ground(terr, at.foot(rp, q, i)[0]) for i in range(2)])
-        last_ground = jnp.where(inc[0], gfoot[0], jnp.where(inc[1], gfoot[1], c.last_ground))
-        apex = c.armed & (~jnp.any(inc)) & (c.ydot_prev > 0) & (vcom[1] <= 0) & (c.status == OK)
-        armed = (c.armed | jnp.any(inc)) & ~apex
-        idx = jnp.minimum(c.n_apex, MAX_APEX - 1)
-        ab = jnp.where(apex, c.apex_bounce.at[idx].set(com[1] - last_ground), c.apex_bounce)
-        asp = jnp.where(apex, c.apex_speed.at[idx].set(vcom[0]), c.apex_speed)
-        ay = jnp.where(apex, c.apex_y.at[idx].set(com[1]), c.apex_y)
-        ax = jnp.where(apex, c.apex_x.at[idx].set(com[0]), c.apex_x)
-        n_apex = c.n_apex + apex.astype(c.n_apex.dtype)
-        fell = (q[1] - tr.ground(terr, q[0]) < 0.45) | (jnp.abs(q[2]) > np.deg2rad(60))
-        bad = ~(jnp.all(jnp.isfinite(q)) & jnp.all(jnp.isfinite(qd)))
-        new_status = jnp.where(bad, NONFINITE, jnp.where(fell, FELL, OK))
-        alive = c.status == OK
-        status = jnp.where(alive, new_status, c.status)
-        keep = alive & ~bad
-        s = jax.tree_util.tree_map(lambda a, b: jnp.where(keep, a, b), s, c.s)
-        t = (c.k + 1) * cfg.dt * cfg.substeps
-        late = (t > 1.0) & alive
+        last_ground = jnp.where(inc[0], gfoot[0], jnp.where(inc[1], gfoot[1], x.last_ground))
+        apex = x.armed & (~jnp.any(inc)) & (x.ydot_prev > 0) & (vcom[1] <= 0)
+        armed = (x.armed | jnp.any(inc)) & ~apex
+        idx = jnp.minimum(x.n_apex, MAX_APEX - 1)
+        ab = jnp.where(apex, x.apex_bounce.at[idx].set(com[1] - last_ground), x.apex_bounce)
+        asp = jnp.where(apex, x.apex_speed.at[idx].set(vcom[0]), x.apex_speed)
+        ay = jnp.where(apex, x.apex_y.at[idx].set(com[1]), x.apex_y)
+        ax = jnp.where(apex, x.apex_x.at[idx].set(com[0]), x.apex_x)
+        n_apex = x.n_apex + apex.astype(x.n_apex.dtype)
+        late = (x.k + 1) * cfg.dt * cfg.substeps > 1.0
         pe = q[2] - cp.theta_star
-        c2 = Carry(s, cs, buf, c.k + 1, status, vcom[1], armed, last_ground, ab, asp, ay, ax, n_apex,
-                   c.pitch_sq + jnp.where(late, pe * pe, 0.0), c.pitch_n + late.astype(float))
-        log = None
-        if cfg.log:
-            H = at.angular_momentum(rp, q, qd)
-            log = dict(t=t, q=q, qd=qd, grf=grf, u=at.clip_input(rp, u), mode=cs.mode, leg=c.cs.leg,
-                       alpha=alpha, H=H, ground=tr.ground(terr, q[0]))
-        return c2, log
+        return Plant(s, grf, x.k + 1, vcom[1], armed, last_ground, ab, asp, ay, ax, n_apex,
+                     x.pitch_sq + jnp.where(late, pe * pe, 0.0), x.pitch_n + late.astype(float))
 
-    return sample
+    def fell(p: Trial, x_before, y, u, x: Plant):
+        q = x.s.q
+        return (q[1] - tr.ground(p.terrain, q[0]) < 0.45) | (jnp.abs(q[2]) > np.deg2rad(60))
+
+    def log(p: Trial, x_before, y, u, x: Plant, c: Ctrl):
+        q, qd = x.s.q, x.s.qd
+        return dict(t=c.k * cfg.dt * cfg.substeps, q=q, qd=qd, grf=x.grf, u=at.clip_input(rp, u), mode=c.cs.mode,
+                    leg=c.leg, alpha=c.alpha, H=at.angular_momentum(rp, q, qd), ground=tr.ground(p.terrain, q[0]))
+
+    return sl.SampledLoop(plant_step=plant_step, sensor=sensor, controller=controller, fell=fell,
+                          sample_time=cfg.dt * cfg.substeps, substeps=1, log=log if cfg.log else None)
 
 
 def system_com(rp, q, qd):
@@ -174,12 +234,14 @@ def _grf_of(rp, gp, terr, s):
 
 
 def make_chunk(rp, cp, cfg: RunConfig, n_samples: int, batched: bool):
-    """Compiled: advance (carry, terrain, key) by n_samples; vmapped over trials if batched."""
-    sample = make_step(rp, cp, cfg)
+    """Compiled: advance (loop state, :class:`Trial`) by n_samples with
+    :func:`bipedlab.sim.loop.run`; vmapped over trials (state and params) if batched. Returns
+    (state, logs or None)."""
+    loop = make_loop(rp, cp, cfg)
 
-    def run(c, terr, key):
-        return jax.lax.scan(lambda c, _: sample(c, terr, key), c, None, length=n_samples)
+    def run(s, p):
+        return sl.run(loop, p, s, n_samples)
 
     if batched:
-        run = jax.vmap(run, in_axes=(0, tr.Terrain(0, None, None, None), 0))
+        run = jax.vmap(run, in_axes=(0, Trial(tr.Terrain(0, None, None, None), 0)))
     return jax.jit(run)

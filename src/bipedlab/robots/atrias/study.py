@@ -116,14 +116,14 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
     cfg = ar.RunConfig(noise=st.noise, delay=int(round(st.delay_ms / (ar.CONTROL_DT * 1e3))), log=log,
                        dt=dt, substeps=int(round(ar.CONTROL_DT / dt)))
     cp = cp.replace(delay=cfg.delay * ar.CONTROL_DT)  # the controller knows its sensing delay
-    c0 = ar.initial_carry(rp, cp, cfg)
+    c0 = ar.initial_state(rp, cp, cfg)
     c = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n,) + jnp.shape(a)), c0)
     if theta0_offsets_deg is not None or st.theta0_offset_deg:
         off = np.deg2rad(np.broadcast_to(theta0_offsets_deg if theta0_offsets_deg is not None
                                          else st.theta0_offset_deg, (n,)))
-        s = c.s
-        c = c.replace(s=s.replace(q=s.q.at[:, at.ITH].add(jnp.asarray(off))))
-    keys = jax.random.split(jax.random.PRNGKey(st.seed), n)
+        s = c.x.s
+        c = c.replace(x=c.x.replace(s=s.replace(q=s.q.at[:, at.ITH].add(jnp.asarray(off)))))
+    trials = ar.Trial(terr, jax.random.split(jax.random.PRNGKey(st.seed), n))
     n_chunk = int(round(chunk_s / ar.CONTROL_DT))
     n_chunks = int(np.ceil(T / chunk_s))
     key = (tuple(st.model_error), st.energy, cfg, n_chunk)
@@ -132,17 +132,18 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
     f = _CHUNKS[key]
     logs = []
     for j in range(n_chunks):
-        c, lg = f(c, terr, keys)
+        c, lg = f(c, trials)
         if log:
             logs.append(jax.tree_util.tree_map(np.asarray, lg))
         if progress:
             progress(j + 1, n_chunks)
-        done = np.asarray(c.status != ar.OK) | (np.asarray(c.s.q[:, 0]) >= (st.distance if not st.seconds else np.inf))
+        done = np.asarray(c.status != ar.OK) | (np.asarray(c.x.s.q[:, 0]) >= (st.distance if not st.seconds else np.inf))
         if done.all():
             break
-    out = dict(status=np.asarray(c.status), x=np.asarray(c.s.q[:, 0]), n_apex=np.asarray(c.n_apex),
-               bounce=np.asarray(c.apex_bounce), speed=np.asarray(c.apex_speed), apex_y=np.asarray(c.apex_y),
-               apex_x=np.asarray(c.apex_x), pitch_rms=np.sqrt(np.asarray(c.pitch_sq) / np.maximum(np.asarray(c.pitch_n), 1)),
+    x = c.x
+    out = dict(status=np.asarray(c.status), x=np.asarray(x.s.q[:, 0]), n_apex=np.asarray(x.n_apex),
+               bounce=np.asarray(x.apex_bounce), speed=np.asarray(x.apex_speed), apex_y=np.asarray(x.apex_y),
+               apex_x=np.asarray(x.apex_x), pitch_rms=np.sqrt(np.asarray(x.pitch_sq) / np.maximum(np.asarray(x.pitch_n), 1)),
                heights=np.asarray(terr.heights))
     if log:
         out["log"] = {k: np.concatenate([lg[k] for lg in logs], axis=1) for k in logs[0]}

@@ -299,8 +299,8 @@ def dynamics_terms(r: SevenLink, q, qd):
     for name in CONTACTS:
         k = tree.point_index(name)
         b = tree.point_bodies[k]
-        p, v, a = kin._point_velocity_accel(tree, fr, vel, b, kin._point_offset(tree, k))
-        cols = kin._jacobian_columns(tree, fr, b, p)
+        p, v, a = kin.point_velocity_accel(tree, fr, vel, b, kin.point_offset(tree, k))
+        cols = kin.jacobian_columns(tree, fr, b, p)
         Jt = jnp.stack([jnp.stack([cols[j][i] + zero if j in cols else zero for j in range(tree.nq)])
                         for i in range(2)])
         P.append(jnp.stack(p))

@@ -124,7 +124,7 @@ def regress_feedforward(thetas, us, phases, bounds, order: int = 5):
     for p in range(4):
         sel = phases == p
         s = (thetas[sel] - bounds[p, 0]) / (bounds[p, 1] - bounds[p, 0])
-        basis = np.asarray(bz._bernstein(order, jnp.asarray(s)))
+        basis = np.asarray(bz.bernstein(order, jnp.asarray(s)))
         beta[p] = np.linalg.lstsq(basis, us[sel], rcond=None)[0].T
     return beta
 
