@@ -22,7 +22,9 @@ def static_field(default=dataclasses.MISSING, **kwargs):
     return dataclasses.field(default=default, metadata={"static": True}, **kwargs)
 
 
-def _replace(self, **changes):
+def replace(self, **changes):
+    """A copy of the frozen dataclass ``self`` with ``changes`` (the ``replace`` method of
+    every :func:`pytree` class; a class registered by hand may bind it as ``replace = replace``)."""
     return dataclasses.replace(self, **changes)
 
 
@@ -30,10 +32,10 @@ def pytree(cls=None):
     """Make ``cls`` a frozen dataclass, registered as a pytree, with a ``replace`` method."""
     def wrap(c):
         c = dataclasses.dataclass(frozen=True)(c)
-        c.replace = _replace
+        c.replace = replace
         return jax.tree_util.register_dataclass(c)
 
     return wrap if cls is None else wrap(cls)
 
 
-__all__ = ["pytree", "static_field"]
+__all__ = ["pytree", "replace", "static_field"]

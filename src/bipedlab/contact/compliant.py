@@ -31,6 +31,7 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.contact.penalty import flat
+from bipedlab.pytree import replace as pytree_replace
 
 
 @jax.tree_util.register_dataclass
@@ -54,8 +55,7 @@ class CompliantGround:
     relax: jax.Array
     terrain: Callable = dataclasses.field(default=flat, metadata=dict(static=True))
 
-    def replace(self, **changes) -> "CompliantGround":
-        return dataclasses.replace(self, **changes)
+    replace = pytree_replace
 
 
 def make(**values) -> CompliantGround:

@@ -6,7 +6,9 @@ scalar becomes a batch vector. Public functions take ``q`` (and ``qd``) of shape
 """
 from __future__ import annotations
 
-from typing import NamedTuple, Union
+import dataclasses
+
+from typing import Union
 
 import jax
 import jax.numpy as jnp
@@ -47,7 +49,8 @@ def _rot(c, s, v: Vec) -> Vec:
     return (c * v[0] - s * v[1], s * v[0] + c * v[1])
 
 
-class Frames(NamedTuple):
+@dataclasses.dataclass(frozen=True)
+class Frames:
     """Per-body world kinematics: cos/sin of the absolute angle, joint origin, COM, and the
     world direction of each body's joint axis (the sliding direction, for prismatic joints)."""
 
@@ -58,7 +61,8 @@ class Frames(NamedTuple):
     axis: list
 
 
-class Velocities(NamedTuple):
+@dataclasses.dataclass(frozen=True)
+class Velocities:
     """Per-body angular velocity, joint-origin velocity and velocity-product acceleration of
     the joint origin (the acceleration it would have with qdd = 0, gravity excluded)."""
 

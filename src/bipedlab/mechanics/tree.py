@@ -26,6 +26,8 @@ import dataclasses
 from typing import Sequence
 
 import jax
+
+from bipedlab.pytree import replace as pytree_replace
 import jax.numpy as jnp
 import numpy as np
 
@@ -152,8 +154,7 @@ class Model:
             B[i, k] = 1.0
         return B
 
-    def replace(self, **changes) -> "Model":
-        return dataclasses.replace(self, **changes)
+    replace = pytree_replace
 
 
 def _lookup(names: Sequence[str], name: str, what: str) -> int:

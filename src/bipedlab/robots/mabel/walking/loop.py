@@ -149,14 +149,14 @@ def _substep(m, setup, z, u, f, t_step, h):
     g0, g1 = _toe(m, z), _toe(m, zn)
     touched = (g0 > 0.0) & (g1 <= 0.0) & (t_step > 0.1 * setup.period)
 
-    def locate(_):
+    def touchdown(_):
         x = regula_falsi(lambda x: _toe(m, _rk4(m, z, u, f, x * h)), 0.0, 1.0, g0, g1, 6)
         zm = _rk4(m, z, u, f, x * h)
         tr = wk.impact(m, zm, setup.eta)
         zp = _rk4(m, tr.z_plus, u, 0.0 * f, (1.0 - x) * h)
         return zp, x, tr.step[0]
 
-    zt, x, length = jax.lax.cond(touched, locate, lambda _: (zn, 1.0, 0.0), None)
+    zt, x, length = jax.lax.cond(touched, touchdown, lambda _: (zn, 1.0, 0.0), None)
     return zt, touched, x, length
 
 
