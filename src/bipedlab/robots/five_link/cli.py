@@ -1,0 +1,86 @@
+"""The five-link biped's commands: ``bipedlab bench``, ``bipedlab optimize five-link`` and
+``bipedlab walk five-link`` (registered with :mod:`bipedlab.cli`; study modules are imported
+inside ``run``)."""
+from __future__ import annotations
+
+from bipedlab.cli import Command, UsageError, nonnegative_float, positive_float, positive_int
+
+ROBOT = "five-link"
+CONTROLLERS = ["iolin", "pd"]
+
+
+def _out(p) -> None:
+    p.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+
+# ----------------------------------------------------------------------------- bench
+def _bench_arguments(p) -> None:
+    p.add_argument("--batch", type=positive_int, nargs="+", default=[64, 256], metavar="N",
+                   help="batch sizes for the batched bipedlab runs (64 is always run)")
+    p.add_argument("--seconds", type=positive_float, default=2.0, help="simulated seconds per rollout")
+    p.add_argument("--threads", type=positive_int, default=None,
+                   help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
+    p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
+
+
+def _bench_cores(args) -> None:
+    """Batched CPU rollouts use every core, as MuJoCo's do: set before JAX touches a device."""
+    from bipedlab.sim import use_cpu_cores
+
+    use_cpu_cores(args.threads)
+
+
+def _bench(args, progress):
+    from bipedlab.robots.five_link import bench
+
+    rec = bench.run(args.batch, args.seconds, args.threads, not args.no_mujoco, progress=bench._eprint)
+    return rec, bench.summary
+
+
+# ----------------------------------------------------------------------------- optimize
+def _optimize_arguments(p) -> None:
+    p.add_argument("--speed", type=positive_float, default=0.8, help="walking speed, m/s")
+    p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
+                   help="integral of squared torque per step length, or mechanical cost of transport")
+    p.add_argument("--controller", choices=CONTROLLERS, default="iolin", help="controller for the Poincaré analysis")
+    p.add_argument("--save", metavar="FILE", help="write the gait to FILE (for walk --gait FILE)")
+    _out(p)
+
+
+def _optimize(args, progress):
+    from bipedlab.robots.five_link import study as hz
+
+    rec = hz.optimize(args.speed, args.cost, args.controller, save=args.save, out=args.out, progress=progress)
+    return rec, hz.summary_optimize
+
+
+# ----------------------------------------------------------------------------- walk
+def _walk_arguments(p) -> None:
+    p.add_argument("--steps", type=positive_int, default=None, help="number of steps (default 50)")
+    p.add_argument("--perturb", type=nonnegative_float, default=0.0,
+                   help="relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
+    p.add_argument("--controller", choices=CONTROLLERS, default=None, help="iolin | pd (default iolin)")
+    p.add_argument("--gait", metavar="GAIT", help="a gait file from optimize --save (default: the shipped gait)")
+    p.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
+    _out(p)
+
+
+def _walk(args, progress):
+    from bipedlab.robots.five_link import study as hz
+
+    try:
+        hz.load_gait(args.gait)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
+    rec = hz.walk(args.steps or 50, args.perturb, args.controller or "iolin", args.gait, args.seed, out=args.out,
+                  progress=progress)
+    return rec, hz.summary_walk
+
+
+COMMANDS = [
+    Command("bench", None, "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
+            _bench_arguments, _bench, compile_cache=False, before_jax=_bench_cores),
+    Command("optimize", ROBOT, "design a periodic HZD walking gait by optimisation", _optimize_arguments, _optimize),
+    Command("walk", ROBOT, "closed-loop HZD walking on a designed gait, optionally from a perturbed state",
+            _walk_arguments, _walk),
+]

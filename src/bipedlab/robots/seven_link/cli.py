@@ -1,0 +1,52 @@
+"""The seven-link biped's commands: ``bipedlab walk seven-link`` and ``bipedlab experiment
+seven-link free-swing|low-gain-pd`` (registered with :mod:`bipedlab.cli`; the study module is
+imported inside ``run``)."""
+from __future__ import annotations
+
+from bipedlab.cli import Command, positive_int
+
+ROBOT = "seven-link"
+EXPERIMENTS = ["free-swing", "low-gain-pd"]
+
+
+def _out(p) -> None:
+    p.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+
+
+def _walk_arguments(p) -> None:
+    p.add_argument("--steps", type=positive_int, default=None, help="number of steps (default 30)")
+    p.add_argument("--params", choices=["paper", "tuned"], default=None,
+                   help="the controller's Table II parameters as published, or retuned for the planar model "
+                        "(default tuned)")
+    _out(p)
+
+
+def _walk(args, progress):
+    from bipedlab.robots.seven_link import study as walk_seven_link
+
+    rec = walk_seven_link.walk(args.steps if args.steps is not None else 30,
+                               args.params if args.params is not None else "tuned", out=args.out, progress=progress)
+    return rec, walk_seven_link.summary_walk
+
+
+def _experiment_arguments(p) -> None:
+    p.add_argument("name", choices=EXPERIMENTS, help=" | ".join(EXPERIMENTS))
+    p.add_argument("--steps", type=positive_int, default=None, help="accepted for symmetry with mabel; no effect")
+    _out(p)
+
+
+def _experiment(args, progress):
+    from bipedlab.robots.seven_link import study as walk_seven_link
+
+    if args.steps is not None:
+        progress(f"seven-link {args.name}: --steps has no effect on this experiment")
+    run = walk_seven_link.free_swing if args.name == "free-swing" else walk_seven_link.low_gain_pd
+    return run(out=args.out, progress=progress), walk_seven_link.summary_experiment
+
+
+COMMANDS = [
+    Command("walk", ROBOT, "nonkinematic walking: configuration-switched spring-damper control on rigid feet",
+            _walk_arguments, _walk),
+    Command("experiment", ROBOT, "validation experiments: " + "|".join(EXPERIMENTS), _experiment_arguments,
+            _experiment),
+]
