@@ -258,26 +258,3 @@ def progress_bar(i, n):
     k = int(w * i / n)
     print(f"\r[bipedlab] running [{'#' * k}{'.' * (w - k)}] {i}/{n} s", end="" if i < n else "\n",
           file=sys.stderr, flush=True)
-
-
-def cli_record(parser, args, progress=None):
-    """``bipedlab run atrias``: validate the options (``parser.error`` on bad input), run the
-    study; returns (record, summary function)."""
-    try:
-        errs = parse_model_errors(args.model_error or [])
-    except ValueError as e:
-        parser.error(str(e))
-    if args.step_height is not None and args.terrain != "rough":
-        parser.error(f"--step-height applies to --terrain rough, not {args.terrain}")
-    if args.slope is not None and args.terrain == "flat":
-        parser.error("--slope applies to --terrain slope or rough, not flat")
-    if args.slope is not None and not (np.isfinite(args.slope) and abs(args.slope) <= 30.0):
-        parser.error(f"--slope must be a grade within +-30 percent, got {args.slope}")
-    st = Settings(terrain=args.terrain, step_height=0.25 if args.step_height is None else float(args.step_height),
-                  slope=1.0 if args.slope is None else float(args.slope), seconds=args.seconds,
-                  rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain == "rough") else 0.0,
-                  distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
-                  delay_ms=float(args.delay_ms), model_error=errs, energy=args.energy, trials=args.trials,
-                  seed=int(args.seed))
-    return study(st, out_dir=args.out, progress=progress), summary
-

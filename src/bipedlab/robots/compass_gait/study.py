@@ -1,13 +1,10 @@
 """The ``walk`` study of the compass gait: the period-one gait on a slope, its Poincaré
 eigenvalues, and a walk of N steps from a (perturbed) fixed point.
-
-CLI registration (wired by the CLI owners): :data:`STUDIES` lists one entry with the study's
-name, robot, one-line help, :func:`add_arguments` (argparse options), :func:`run_from_args`
-(parsed args -> record) and :func:`summary` (record -> short text).
+Its command line, ``bipedlab walk compass-gait``, is registered in
+:mod:`bipedlab.robots.compass_gait.cli`.
 """
 from __future__ import annotations
 
-import argparse
 import os
 
 import jax.numpy as jnp
@@ -81,31 +78,6 @@ def summary(record: dict) -> str:
     if record.get("png"):
         lines.append(f"  figure: {record['png']}")
     return "\n".join(lines)
-
-
-def add_arguments(parser: argparse.ArgumentParser) -> argparse.ArgumentParser:
-    """Options of the compass-gait walk study."""
-    parser.add_argument("--slope", type=float, default=3.0, metavar="DEG", help="slope angle, degrees (default 3)")
-    parser.add_argument("--steps", type=int, default=20, metavar="N", help="steps to walk (default 20)")
-    parser.add_argument("--perturb", type=float, default=0.0, metavar="S",
-                        help="size of the initial displacement from the fixed point (default 0)")
-    parser.add_argument("--seed", type=int, default=0, metavar="K", help="seed of the displacement direction")
-    parser.add_argument("--json", action="store_true", help="print the record as JSON")
-    parser.add_argument("--out", default=None, metavar="DIR", help="write a stick-figure PNG into DIR")
-    return parser
-
-
-def run_from_args(args: argparse.Namespace):
-    """(record, summary) from parsed :func:`add_arguments` options."""
-    return walk(args.slope, args.steps, args.perturb, args.seed, args.out)
-
-
-#: CLI registration for the study owners to wire in.
-STUDIES = [
-    dict(name="walk", robot="compass_gait",
-         help="passive compass-gait walking down a slope: period-one gait, Poincaré eigenvalues, perturbed walk",
-         add_arguments=add_arguments, run=run_from_args, walk=walk, summary=summary),
-]
 
 
 def _plot(p, g, out: str) -> str:

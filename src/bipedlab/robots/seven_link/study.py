@@ -454,36 +454,3 @@ def summary_experiment(rec: dict) -> str:
     if rec.get("files"):
         lines.append("  wrote " + ", ".join(rec["files"]))
     return "\n".join(lines)
-
-
-# ----------------------------------------------------------------------------- CLI
-_WALK_DEFAULTS = (("controller", None, "--controller"), ("gait", None, "--gait"), ("push", None, "--push"),
-                  ("impact_scale", 1.0, "--impact-scale"), ("lean", 0.0, "--lean"), ("lean_steps", 20, "--lean-steps"),
-                  ("sensing", "encoders", "--sensing"), ("perturb", 0.0, "--perturb"), ("seed", 0, "--seed"))
-
-
-def cli_record(parser, args, progress=None):
-    """``bipedlab walk seven-link`` and ``bipedlab experiment seven-link NAME``: validate the
-    options (``parser.error`` on bad input) and run; returns (record, summary function)."""
-    say = progress or (lambda msg: None)
-    if args.study == "walk":
-        for attr, default, flag in _WALK_DEFAULTS:
-            if getattr(args, attr) != default:
-                parser.error(f"seven-link: {flag} applies to five-link or mabel, not seven-link")
-        steps = args.steps if args.steps is not None else 30
-        params = args.params if args.params is not None else "tuned"
-        rec = walk(steps, params, out=args.out, progress=progress)
-        summary = summary_walk
-    elif args.study == "experiment":
-        if args.steps is not None:
-            say(f"seven-link {args.name}: --steps has no effect on this experiment")
-        if args.name == "free-swing":
-            rec = free_swing(out=args.out, progress=progress)
-        elif args.name == "low-gain-pd":
-            rec = low_gain_pd(out=args.out, progress=progress)
-        else:
-            parser.error(f"seven-link: experiment must be free-swing or low-gain-pd, got {args.name}")
-        summary = summary_experiment
-    else:
-        parser.error(f"seven-link: {args.study} is not available for seven-link")
-    return rec, summary
