@@ -139,4 +139,6 @@ def walk_figures(out, vc, st, ctrl, z0, w) -> list[str]:
             offsets=[offsets[k] for k in pick])
     np.savez(out / "walk.npz", t=t, states=zs, u=us, z_minus=np.asarray(w.z_minus),
              duration=np.asarray(w.duration), step_length=np.asarray(w.step_length))
-    return [str(out / n) for n in ("virtual_constraints.png", "torques.png", "stick_figure.png", "walk.npz")]
+    animate(out / "walk.html", st, t, zs)  # the first step, playable offline in a browser
+    return [str(out / n) for n in ("virtual_constraints.png", "torques.png", "stick_figure.png", "walk.npz",
+                                   "walk.html")]

@@ -180,6 +180,7 @@ def _walk_files(res, out, params) -> list:
     lt, lx, lu = np.asarray(res.log_t[:nl]), np.asarray(res.log_x[:nl]), np.asarray(res.log_u[:nl])
     states = np.asarray(res.log_ctrl[:nl, :2])
     files = [vp.angles_and_torques(lt, lx, lu, states, d), vp.stick_figure(lt, lx, d)]
+    files += vp.animate(d / "walk.html", lt, lx)  # the whole walk, playable offline in a browser
     npz = d / f"walk_seven_link_{params}.npz"
     np.savez(npz, t=lt, x=lx, u=lu, states=states, active=np.asarray(res.log_active[:nl]),
              forces=np.asarray(res.log_force[:nl]), td_time=np.asarray(res.td_time), td_hip_x=np.asarray(res.td_hip_x))
