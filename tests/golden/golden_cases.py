@@ -1,0 +1,56 @@
+"""The golden cases (no bipedlab import): data file name -> how to recompute it, whether it
+is slow, and its tolerances. Shared by record.py and the tests."""
+from __future__ import annotations
+
+from typing import NamedTuple
+
+
+class Case(NamedTuple):
+    func: str            # adapter function name (or "cli" for a CLI record)
+    args: tuple = ()     # positional args (the argv for "cli")
+    slow: bool = False
+    rtol: float = 1e-9
+    atol: float = 1e-12
+    #: per-key tolerances (dotted path prefix -> (rtol, atol)), see adapter.py's docstring
+    special: tuple = ()
+
+
+EIG = (("eigenvalue_moduli", 1e-7, 1e-9), ("jacobian", 1e-9, 1e-10))
+
+QUANTITIES = {
+    "gait_five_link_0.8": Case("five_link_gait"),
+    "gait_mabel_nominal": Case("mabel_gait", ("nominal",)),
+    "gait_mabel_efficient": Case("mabel_gait", ("efficient",)),
+    "gait_mabel_fast": Case("mabel_gait", ("fast",)),
+    "poincare_five_link_restricted": Case("five_link_restricted"),
+    "poincare_five_link_iolin": Case("five_link_poincare", ("iolin",), slow=True, special=EIG),
+    "poincare_five_link_pd": Case("five_link_poincare", ("pd",), slow=True, special=EIG),
+    "poincare_mabel_restricted_nominal": Case("mabel_restricted", ("nominal",), slow=True, special=EIG),
+    "walk_five_link_iolin": Case("five_link_walk", ("iolin",), slow=True),
+    "walk_five_link_pd": Case("five_link_walk", ("pd",), slow=True),
+    "walk_mabel_pdff": Case("mabel_walk", ("pdff",)),
+    "walk_mabel_iolin": Case("mabel_walk", ("iolin",)),
+    "walk_seven_link": Case("seven_link_walk"),
+    "run_atrias": Case("atrias_run"),
+    "run_slip": Case("slip_run"),
+    "hop_mabel": Case("mabel_hop"),
+    "bench_standing": Case("bench_standing"),
+    "optimize_five_link": Case("five_link_optimize", slow=True, rtol=1e-6, atol=1e-9),
+}
+
+CLI = {
+    "cli_walk_five_link": Case("cli", ("walk", "five-link", "--steps", "3"), slow=True),
+    "cli_walk_five_link_pd": Case("cli", ("walk", "five-link", "--steps", "3", "--controller", "pd"), slow=True),
+    "cli_walk_mabel": Case("cli", ("walk", "mabel", "--steps", "3")),
+    "cli_walk_mabel_iolin": Case("cli", ("walk", "mabel", "--steps", "3", "--controller", "iolin"), slow=True),
+    "cli_walk_seven_link": Case("cli", ("walk", "seven-link", "--steps", "2")),
+    "cli_experiment_seven_link_free_swing": Case("cli", ("experiment", "seven-link", "free-swing")),
+    "cli_run_atrias": Case("cli", ("run", "atrias", "--seconds", "1")),
+    "cli_run_atrias_trials": Case("cli", ("run", "atrias", "--trials", "2", "--seconds", "1"), slow=True),
+    "cli_hop_mabel": Case("cli", ("hop", "mabel", "--hops", "2", "--no-poincare")),
+    "cli_identify_mabel_quick": Case("cli", ("identify", "mabel", "--synthetic", "--quick"), slow=True,
+                                     rtol=1e-6, atol=1e-9),
+    "cli_optimize_five_link": Case("cli", ("optimize", "five-link"), slow=True, rtol=1e-6, atol=1e-9),
+}
+
+ALL = {**QUANTITIES, **CLI}
