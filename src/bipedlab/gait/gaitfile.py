@@ -9,11 +9,13 @@ The core's own kind, ``"hzd"`` (gaits designed by :mod:`bipedlab.gait.optimize`)
 payload ``H0`` (m x n), ``c`` (n), ``alpha`` (m x (M+1)), ``theta_plus`` and ``theta_minus``
 (rad), ``z_minus`` (the pre-impact fixed point, stance coordinates and rates), and free-form
 ``design`` figures (speed, cost, ...) (:func:`to_dict`, :func:`from_dict`, :func:`save`,
-:func:`load`).
+:func:`load`). Every field is checked on reading, before anything runs (:mod:`.schema`): a
+problem raises ValueError ``"<file>: payload.<field>: <problem>"``.
 """
 from __future__ import annotations
 
 import json
+import math
 from importlib import resources
 from pathlib import Path
 
@@ -21,6 +23,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.control.hzd import VirtualConstraints
+from bipedlab.gait import schema
 
 SCHEMA = "bipedlab-gait"
 VERSION = 2
@@ -35,16 +38,32 @@ def envelope(robot: str, kind: str, payload: dict) -> dict:
     return dict(format=FORMAT, robot=robot, kind=kind, payload=payload)
 
 
+def open_payload(d, source: str, kind: str, legacy: tuple = ()) -> tuple[dict, str]:
+    """(the payload of a gait file of ``kind`` with ``robot`` and ``format`` added, the prefix
+    naming its fields in messages: ``"payload."``); for a version-1 file whose format is one
+    of ``legacy``, (the file itself, ""). ValueError naming the source and the field otherwise."""
+    if not isinstance(d, dict):
+        schema.fail(source, "", f"not a bipedlab gait file (the top level is {schema.describe(d)}, not an object)")
+    fmt = d.get("format")
+    if fmt in legacy and isinstance(fmt, str):
+        robot = schema.text(d, "robot", source, required=False)
+        return dict(d, robot=robot), ""
+    if fmt != FORMAT:
+        got = repr(fmt) if isinstance(fmt, str) else schema.describe(fmt) if "format" in d else "nothing"
+        schema.fail(source, "format", f"not a bipedlab gait file (expected {FORMAT!r}, got {got})")
+    got_kind = schema.text(d, "kind", source)
+    if got_kind != kind:
+        schema.fail(source, "kind", f"a {got_kind!r} gait; expected a {kind!r} payload")
+    robot = schema.text(d, "robot", source)
+    payload = schema.section(d, "payload", source)
+    return dict(payload, robot=robot, format=FORMAT), "payload."
+
+
 def open_envelope(d, source: str, kind: str, legacy: tuple = ()) -> dict:
     """The payload of a gait file of ``kind`` (with ``robot`` and ``format`` added), or, for a
     version-1 file whose format is one of ``legacy``, the file itself. ValueError naming the
-    source otherwise."""
-    if isinstance(d, dict) and d.get("format") in legacy:
-        return d
-    if not (isinstance(d, dict) and d.get("format") == FORMAT and d.get("kind") == kind
-            and isinstance(d.get("payload"), dict)):
-        raise ValueError(f"{source}: not a bipedlab gait file (expected format {FORMAT!r} with a {kind!r} payload)")
-    return dict(d["payload"], robot=d.get("robot"), format=FORMAT)
+    source and the field otherwise."""
+    return open_payload(d, source, kind, legacy)[0]
 
 
 def to_dict(robot: str, vc: VirtualConstraints, z_minus, design: dict) -> dict:
@@ -59,25 +78,35 @@ def save(path, robot: str, vc: VirtualConstraints, z_minus, design: dict) -> Non
     Path(path).write_text(json.dumps(to_dict(robot, vc, z_minus, design), indent=1))
 
 
-def from_dict(d: dict, source: str = "gait") -> tuple[VirtualConstraints, jnp.ndarray, dict]:
-    """(virtual constraints, pre-impact fixed point, the whole record); ValueError names the
-    source and the problem."""
-    d = open_envelope(d, source, HZD, legacy=(HZD_V1,))
-    try:
-        H0 = np.asarray(d["H0"], float)
-        c = np.asarray(d["c"], float)
-        alpha = np.asarray(d["alpha"], float)
-        z = np.asarray(d["z_minus"], float)
-        tp, tm = float(d["theta_plus"]), float(d["theta_minus"])
-    except (KeyError, TypeError, ValueError) as e:
-        raise ValueError(f"{source}: missing or malformed field ({e})") from None
-    n = c.size
-    if H0.ndim != 2 or H0.shape[1] != n or alpha.ndim != 2 or alpha.shape[0] != H0.shape[0] or z.size != 2 * n:
-        raise ValueError(f"{source}: inconsistent sizes (H0 {H0.shape}, c {c.shape}, alpha {alpha.shape}, z_minus {z.shape})")
-    if not all(np.all(np.isfinite(a)) for a in (H0, c, alpha, z, tp, tm)):
-        raise ValueError(f"{source}: non-finite values (NaN or Infinity)")
+#: most coefficients of a Bézier virtual constraint (degree 1 to 20)
+MAX_COEFFICIENTS = 21
+
+
+def from_dict(d: dict, source: str = "gait", sizes: tuple | None = None
+              ) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
+    """(virtual constraints, pre-impact fixed point, the whole record). Every field is
+    checked (type, shape, finiteness, the bounds of :mod:`bipedlab.gait.schema`); with
+    ``sizes = (n, m)`` the gait must have m outputs on n stance coordinates. ValueError
+    naming the source and the field."""
+    d, pre = open_payload(d, source, HZD, legacy=(HZD_V1,))
+    n, m = sizes if sizes is not None else (None, None)
+    H0 = schema.array(d, "H0", source, pre, (m, n), schema.COEFFICIENT, "")
+    m, n = H0.shape
+    c = schema.array(d, "c", source, pre, (n,), schema.COEFFICIENT, "")
+    alpha = schema.array(d, "alpha", source, pre, (m, None))
+    if not 2 <= alpha.shape[1] <= MAX_COEFFICIENTS:
+        schema.fail(source, pre + "alpha", f"expected {m} rows of 2 to {MAX_COEFFICIENTS} Bézier coefficients, "
+                                           f"got {alpha.shape[1]}")
+    z = schema.array(d, "z_minus", source, pre, (2 * n,), bound=math.inf)
+    schema.within(z[:n], source, pre + "z_minus", schema.ANGLE, "rad")
+    schema.within(z[n:], source, pre + "z_minus", schema.RATE, "rad/s", offset=n)
+    tp = schema.number(d, "theta_plus", source, pre)
+    tm = schema.number(d, "theta_minus", source, pre)
     if not tm > tp:
-        raise ValueError(f"{source}: theta_minus <= theta_plus (the phase must grow over a step)")
+        schema.fail(source, pre + "theta_minus", "theta_minus <= theta_plus (the phase must grow over a step)")
+    design = schema.section(d, "design", source, pre, required=False)
+    if design is not None:
+        schema.optional_number(design, "speed_mps", source, pre + "design.", 100.0, "m/s")
     vc = VirtualConstraints(jnp.asarray(H0), jnp.asarray(c), jnp.asarray(alpha), jnp.asarray(tp), jnp.asarray(tm))
     return vc, jnp.asarray(z), d
 
@@ -89,18 +118,20 @@ def check_sizes(vc: VirtualConstraints, z_minus, n: int, m: int, source: str) ->
                          f"{vc.H0.shape[0]} outputs; this robot has {n} and {m}")
 
 
-def read_json(path, unreadable: str = "cannot read") -> dict:
-    """The JSON object in a file; ValueError naming the path and the problem."""
-    try:
-        return json.loads(Path(path).read_text())
-    except OSError as e:
-        raise ValueError(f"{path}: {unreadable} ({e.strerror})") from None
-    except json.JSONDecodeError as e:
-        raise ValueError(f"{path}: not valid JSON ({e.msg} at line {e.lineno})") from None
+def read_json(path, unreadable: str = "cannot read"):
+    """The JSON value in a file; ValueError naming the path and the problem (see
+    :func:`bipedlab.gait.schema.read_json`)."""
+    return schema.read_json(path, unreadable)
 
 
-def load(path) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
-    return from_dict(read_json(path), str(path))
+def parse(text: str, source: str):
+    """The JSON value of a gait file's text; ValueError naming ``source`` (see
+    :func:`bipedlab.gait.schema.parse`)."""
+    return schema.parse(text, source)
+
+
+def load(path, sizes: tuple | None = None) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
+    return from_dict(read_json(path), str(path), sizes)
 
 
 def shipped_text(package: str, name: str) -> tuple[str, str]:
@@ -109,7 +140,7 @@ def shipped_text(package: str, name: str) -> tuple[str, str]:
             f"{package.replace('.', '/')}/data/{name}.json")
 
 
-def shipped(package: str, name: str):
+def shipped(package: str, name: str, sizes: tuple | None = None):
     """A gait shipped with a robot package, ``data/NAME.json`` inside ``package``."""
     text, label = shipped_text(package, name)
-    return from_dict(json.loads(text), label)
+    return from_dict(schema.parse(text, label), label, sizes)

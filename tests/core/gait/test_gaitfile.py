@@ -31,15 +31,17 @@ def _valid(shipped):
 
 
 @pytest.mark.parametrize("mutate,needle", [
-    (lambda d: d.update(format="other/1"), "not a bipedlab gait file"),
-    (lambda d: d.update(kind="some-other-robot-payload"), "not a bipedlab gait file"),
-    (lambda d: d.pop("payload"), "not a bipedlab gait file"),
-    (lambda d: d["payload"].pop("alpha"), "missing or malformed"),
-    (lambda d: d["payload"].update(theta_plus="abc"), "missing or malformed"),
-    (lambda d: d["payload"].update(z_minus=d["payload"]["z_minus"][:-1]), "inconsistent sizes"),
-    (lambda d: d["payload"].update(H0=[row[:-1] for row in d["payload"]["H0"]]), "inconsistent sizes"),
+    (lambda d: d.update(format="other/1"), "format: not a bipedlab gait file"),
+    (lambda d: d.update(kind="some-other-robot-payload"), "kind: a 'some-other-robot-payload' gait"),
+    (lambda d: d.pop("payload"), "payload: missing"),
+    (lambda d: d["payload"].pop("alpha"), "payload.alpha: missing"),
+    (lambda d: d["payload"].update(theta_plus="abc"), "payload.theta_plus: expected a number, got a string"),
+    (lambda d: d["payload"].update(z_minus=d["payload"]["z_minus"][:-1]),
+     "payload.z_minus: expected an array of 10 finite numbers, got an array of 9 numbers"),
+    (lambda d: d["payload"].update(H0=[row[:-1] for row in d["payload"]["H0"]]), "payload.c: expected an array of 4"),
     (lambda d: d["payload"].update(theta_minus=d["payload"]["theta_plus"] - 0.1), "theta_minus <= theta_plus"),
-    (lambda d: d["payload"]["alpha"][0].__setitem__(0, float("nan")), "non-finite"),
+    (lambda d: d["payload"]["alpha"][0].__setitem__(0, float("nan")),
+     "payload.alpha[0][0]: expected a finite number, got nan"),
 ])
 def test_malformed_records_raise_value_error_naming_the_file(shipped, tmp_path, mutate, needle):
     d = _valid(shipped)

@@ -91,13 +91,14 @@ def optimize(speed: float = 0.8, cost: str = "torque", controller: str = "iolin"
 
 
 def load_gait(path=None):
-    """The gait in a file (default: the shipped one); ValueError naming the file if it cannot
-    drive the five-link biped."""
-    vc, z, rec = gaitfile.load(path) if path else gaitfile.shipped("bipedlab.robots.five_link", SHIPPED)
+    """The gait in a file (default: the shipped one), every field checked before anything
+    runs; ValueError naming the file and the field if it cannot drive the five-link biped."""
     H0, _ = five_link.hzd_outputs()
-    gaitfile.check_sizes(vc, z, H0.shape[1], H0.shape[0], str(path or SHIPPED))
+    sizes = (H0.shape[1], H0.shape[0])
+    vc, z, rec = (gaitfile.load(path, sizes) if path
+                  else gaitfile.shipped("bipedlab.robots.five_link", SHIPPED, sizes))
     if rec.get("robot") != ROBOT:
-        raise ValueError(f"{path}: a gait for {rec.get('robot')!r}, not {ROBOT!r}")
+        raise ValueError(f"{path}: robot: a gait for {rec.get('robot')!r}, not {ROBOT!r}")
     return vc, z, rec
 
 
@@ -135,7 +136,7 @@ def walk(steps: int = 50, perturb: float = 0.0, controller: str = "iolin", gait=
         initial_deviation=float(np.linalg.norm(z0 - np.asarray(z_star))),
         final_deviation=float(dev[n_ok - 1]) if n_ok else None,
         deviation_per_step=[float(v) for v in dev[:n_ok]],
-        gait_speed_mps=meta.get("design", {}).get("speed_mps"),
+        gait_speed_mps=(meta.get("design") or {}).get("speed_mps"),
         wall_s=wall,
     )
     if out:

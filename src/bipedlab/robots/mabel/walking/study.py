@@ -27,6 +27,7 @@ import numpy as np
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.gait import gaitfile
+from bipedlab.robots.mabel.walking import gait_schema
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking.zero_dynamics import robot_mass
@@ -66,27 +67,21 @@ def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: s
 
 
 def from_record(d: dict, source: str):
-    """(constraints, gains, record); ValueError naming the source and the problem."""
-    d = gaitfile.open_envelope(d, source, KIND, legacy=(FORMAT_V1,))
-    try:
-        vc = _vc_from(d["constraints"])
-        ff = d["feedforward"]
-        gains = ctl.default_gains(np.asarray(ff["beta"], float), np.asarray(ff["bounds"], float),
-                                  np.asarray(ff["signs"], float))
-        for k in ("z_minus", "z_plus"):
-            if np.asarray(d[k], float).shape != (12,):
-                raise ValueError(f"{k} must have 12 entries")
-    except (KeyError, TypeError, ValueError) as e:
-        raise ValueError(f"{source}: missing or malformed field ({e})") from None
-    if not all(np.all(np.isfinite(np.asarray(leaf))) for leaf in jax.tree_util.tree_leaves(vc)):
-        raise ValueError(f"{source}: non-finite values (NaN or Infinity)")
+    """(constraints, gains, record), every field checked first (:mod:`.gait_schema`);
+    ValueError naming the source and the field."""
+    d, pre = gaitfile.open_payload(d, source, KIND, legacy=(FORMAT_V1,))
+    gait_schema.check(d, source, pre)
+    vc = _vc_from(d["constraints"])
+    ff = d["feedforward"]
+    gains = ctl.default_gains(np.asarray(ff["beta"], float), np.asarray(ff["bounds"], float),
+                              np.asarray(ff["signs"], float))
     return vc, gains, d
 
 
 def load_gait(name_or_path: str):
     if name_or_path in GAITS:
         text, label = gaitfile.shipped_text("bipedlab.robots.mabel", f"mabel_{name_or_path}")
-        return from_record(json.loads(text), label)
+        return from_record(gaitfile.parse(text, label), label)
     d = gaitfile.read_json(name_or_path, f"not a shipped gait ({', '.join(GAITS)}) and cannot be read")
     return from_record(d, str(name_or_path))
 
