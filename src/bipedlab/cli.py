@@ -19,17 +19,27 @@ floats as null; progress goes to stderr; bad input exits with status 2 and one l
 ``bipedlab: error: ...`` on stderr. ``bipedlab`` alone lists the studies. A command's ``run``
 reports bad input by raising :class:`UsageError`; it imports its study modules itself, so
 that building the parser (``bipedlab --help``) stays fast.
+
+Before any work: every numeric option is range-checked by its argparse type (:func:`int_in`,
+:func:`float_in`; the range is appended to the option's help), string options are non-empty
+(:func:`text`), a command's ``validate(args)`` rejects combinations that cannot mean anything,
+and the output options declared with :func:`add_out` / :func:`add_save` are checked and staged
+(:mod:`bipedlab.outputs`): the study writes under a temporary name that is renamed into place
+only when it has succeeded. While the study runs, SIGINT / SIGTERM end it with status 130 / 143
+and one line (:mod:`bipedlab.interrupt`), leaving no partial output.
 """
 from __future__ import annotations
 
 import argparse
 import importlib
-import json
 import math
+import os
 import pkgutil
 import sys
 from dataclasses import dataclass
 from typing import Callable, Optional
+
+from bipedlab import interrupt, outputs
 
 ENTRY_POINT_GROUP = "bipedlab.robots"
 VERB_ORDER = ("bench", "optimize", "walk", "experiment", "run", "hop", "identify")
@@ -52,6 +62,9 @@ class Command:
         before running.
     before_jax(args): optional hook run first, before JAX touches a device (e.g. to set the
         number of CPU devices).
+    validate(args): optional check of the parsed options run before anything else (before
+        the outputs are staged, before before_jax and run); raises UsageError on a combination
+        that cannot mean anything. It should not import the study modules.
     """
 
     verb: str
@@ -61,6 +74,7 @@ class Command:
     run: Callable[[argparse.Namespace, Callable[[str], None]], tuple]
     compile_cache: bool = True
     before_jax: Optional[Callable[[argparse.Namespace], None]] = None
+    validate: Optional[Callable[[argparse.Namespace], None]] = None
 
     @property
     def name(self) -> str:
@@ -80,8 +94,13 @@ class _Parser(argparse.ArgumentParser):
 
     def error(self, message):
         prefix = f"{self.command}: " if self.command else ""
-        print(f"bipedlab: error: {prefix}{message}", file=sys.stderr)
+        print(one_line(f"bipedlab: error: {prefix}{message}"), file=sys.stderr)
         raise SystemExit(2)
+
+
+def one_line(text: str) -> str:
+    """``text`` with line breaks shown as escapes, so an error stays one line whatever the input."""
+    return str(text).replace("\r", "\\r").replace("\n", "\\n")
 
 
 def positive_int(text: str) -> int:
@@ -119,14 +138,84 @@ def nonnegative_float(text: str) -> float:
 _positive_int, _positive_float, _nonnegative_float = positive_int, positive_float, nonnegative_float
 
 
+def _fmt(v) -> str:
+    return str(v) if isinstance(v, int) else f"{v:g}"
+
+
+class Range:
+    """argparse type: a number in the closed interval [lo, hi]; ``text`` is "[lo, hi]"."""
+
+    def __init__(self, lo, hi, integer: bool):
+        self.lo, self.hi, self.integer = lo, hi, integer
+        self.text = f"[{_fmt(lo)}, {_fmt(hi)}]"
+        self.__name__ = f"{'integer' if integer else 'number'} in {self.text}"
+
+    def __call__(self, text: str):
+        kind = "an integer" if self.integer else "a number"
+        bad = argparse.ArgumentTypeError(f"expected {kind} in {self.text}, got {text!r}")
+        try:
+            v = int(text) if self.integer else float(text)
+        except (ValueError, TypeError):
+            raise bad from None
+        if not (math.isfinite(v) and self.lo <= v <= self.hi):
+            raise bad
+        return v
+
+    def __repr__(self):
+        return f"{'int_in' if self.integer else 'float_in'}({self.lo!r}, {self.hi!r})"
+
+
+def int_in(lo: int, hi: int) -> Range:
+    """argparse type: an integer in [lo, hi] (error: "expected an integer in [lo, hi], got 'x'")."""
+    return Range(int(lo), int(hi), integer=True)
+
+
+def float_in(lo: float, hi: float) -> Range:
+    """argparse type: a finite number in [lo, hi] (error: "expected a number in [lo, hi], got 'x'")."""
+    return Range(float(lo), float(hi), integer=False)
+
+
+SEED = int_in(0, 2**32 - 1)
+"""argparse type of every seed: what NumPy's and JAX's generators take."""
+
+
+def text(value: str) -> str:
+    """argparse type: a non-empty string (not only blanks, no NUL) that the OS can take as a
+    path or a name."""
+    if not value.strip():
+        raise argparse.ArgumentTypeError(f"expected a non-empty value, got {value!r}")
+    if "\x00" in value:
+        raise argparse.ArgumentTypeError(f"expected no NUL character, got {value!r}")
+    try:
+        os.fsencode(value)
+    except UnicodeError:
+        raise argparse.ArgumentTypeError(f"expected text the system can encode, got {value!r}") from None
+    return value
+
+
+def add_out(p, what: str = "figures (PNG) and data (NPZ)", flag: str = "--out") -> None:
+    """Add the output-folder option (DIR): checked and staged by the core before the study runs;
+    the study receives a temporary folder, renamed to DIR when it succeeds."""
+    _declare_output(p, p.add_argument(flag, type=text, metavar="DIR", help=f"write {what} to DIR"), "dir")
+
+
+def add_save(p, what: str = "the gait", flag: str = "--save") -> None:
+    """Add an output-file option (FILE): checked and staged like :func:`add_out`, renamed onto
+    FILE (os.replace) when the study succeeds."""
+    _declare_output(p, p.add_argument(flag, type=text, metavar="FILE", help=f"write {what} to FILE"), "file")
+
+
+def _declare_output(p, action, kind: str) -> None:
+    declared = list(p.get_default("_outputs") or [])
+    p.set_defaults(_outputs=declared + [(action.dest, kind, action.option_strings[0])])
+
+
 def _progress(msg: str) -> None:
     print(f"[bipedlab] {msg}", file=sys.stderr, flush=True)
 
 
 def _enable_compile_cache() -> None:
     """Keep compiled programs between runs (first runs compile; later ones start fast)."""
-    import os
-
     import jax
 
     path = os.environ.get("BIPEDLAB_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab", "xla")
@@ -134,7 +223,30 @@ def _enable_compile_cache() -> None:
         os.makedirs(path, exist_ok=True)
         jax.config.update("jax_compilation_cache_dir", path)
     except OSError:
-        pass
+        return
+    _cache_writes_are_critical()
+
+
+def _cache_writes_are_critical() -> None:
+    """An interruption must not cut a compilation-cache entry in half (JAX writes the entry in
+    place, and a truncated one is reported on every later run): JAX's file cache writes an
+    entry inside interrupt.critical(), which the exit waits for. Leaves JAX alone if its cache
+    class is not where this JAX version keeps it."""
+    try:
+        from jax._src import lru_cache
+    except ImportError:
+        return
+    cls = getattr(lru_cache, "LRUCache", None)
+    put = getattr(cls, "put", None)
+    if put is None or getattr(put, "_bipedlab_critical", False):
+        return
+
+    def critical_put(self, key, value):
+        with interrupt.critical():
+            return put(self, key, value)
+
+    critical_put._bipedlab_critical = True
+    cls.put = critical_put
 
 
 # ----------------------------------------------------------------------------- registry
@@ -151,8 +263,6 @@ def robot_cli_modules() -> list[str]:
     """Names of the robot packages' CLI modules, sorted: ``bipedlab.robots.<pkg>.cli`` for
     every package under bipedlab.robots (found by pkgutil.iter_modules) that has a ``cli``
     module. Nothing is imported here."""
-    import os
-
     import bipedlab.robots as robots
 
     names = []
@@ -219,6 +329,9 @@ def _leaf(sub, name: str, cmd: Command, help_text: str):
     cmd.add_arguments(p)
     if "--json" not in p._option_string_actions:  # a command may declare it itself, with the same meaning
         p.add_argument("--json", action="store_true", help="print one JSON object on stdout")
+    for a in p._actions:  # every range is stated in its option's help
+        if isinstance(a.type, Range) and a.help is not argparse.SUPPRESS and a.type.text not in (a.help or ""):
+            a.help = f"{a.help or ''}; in {a.type.text}".lstrip("; ")
     p.set_defaults(_command=cmd)
     return p
 
@@ -263,46 +376,105 @@ def command_parsers(parser) -> dict:
 
 
 # ----------------------------------------------------------------------------- running
-def _json_safe(x):
-    """Non-finite floats (a fallen trial's statistics) -> None, so the JSON stays strict."""
-    if isinstance(x, dict):
-        return {k: _json_safe(v) for k, v in x.items()}
-    if isinstance(x, (list, tuple)):
-        return [_json_safe(v) for v in x]
-    if isinstance(x, float) and not math.isfinite(x):
-        return None
-    return x
+_json_safe = outputs.json_safe  # non-finite floats (a fallen trial's statistics) -> None
 
 
 def _emit(record: dict, as_json: bool, summary) -> None:
     if as_json:
-        print(json.dumps(_json_safe(record), allow_nan=False, default=float))
+        print(outputs.dumps_json(record))
     else:
         print(summary(record))
 
 
-def main(argv=None) -> int:
-    """Parse argv (default sys.argv[1:]), run the chosen command and print its record."""
-    parser = build_parser()
+def parse(argv=None, parser=None):
+    """Parse and validate argv without running anything: returns (parser, args) of a command
+    ready to run (args._command set), or (parser, None) for the bare listing. Bad input exits
+    with status 2 and one line (SystemExit). Output targets are not touched here."""
+    parser = parser or build_parser()
     args, extra = parser.parse_known_args(argv)
     cmd = getattr(args, "_command", None)
     if extra:
         where = f"{cmd.name}: " if cmd is not None else ""
         parser.error(f"{where}unrecognized arguments: {' '.join(extra)}")
     if args.verb is None:
-        parser.print_help()
-        return 0
+        return parser, None
     if cmd is None:
         parser.error(f"{args.verb}: choose a robot: {', '.join(args._robots)}")
-    if cmd.before_jax is not None:
-        cmd.before_jax(args)
-    if cmd.compile_cache:
-        _enable_compile_cache()
+    if cmd.validate is not None:
+        try:
+            cmd.validate(args)
+        except UsageError as e:
+            parser.error(f"{cmd.name}: {e}")
+    return parser, args
+
+
+def _stage_outputs(parser, args) -> outputs.Staging:
+    """Check every declared output target and point its option at the staged path."""
+    staging = outputs.Staging()
+    for dest, kind, option in getattr(args, "_outputs", None) or []:
+        value = getattr(args, dest, None)
+        if value is None:
+            continue
+        try:
+            staged = staging.stage_dir(option, value) if kind == "dir" else staging.stage_file(option, value)
+        except outputs.OutputError as e:
+            staging.discard()
+            parser.error(f"{args._command.name}: {e}")
+        setattr(args, dest, staged)
+    return staging
+
+
+def _fail(line: str, code: int) -> int:
+    print(one_line(f"bipedlab: error: {line}"), file=sys.stderr)
+    return code
+
+
+def main(argv=None) -> int:
+    """Parse argv (default sys.argv[1:]), run the chosen command and print its record.
+
+    Exit status: 0 done; 2 bad input (one ``bipedlab: error:`` line, nothing run); 1 the
+    outputs could not be written (one line; nothing left half-written); 130 / 143 interrupted
+    by SIGINT / SIGTERM (one line; no partial output)."""
     try:
-        record, summary = cmd.run(args, _progress)
-    except UsageError as e:
-        parser.error(str(e))
-    _emit(record, args.json, summary)
+        return _main(argv)
+    except KeyboardInterrupt:  # before the handlers are in place (parsing, imports)
+        print(interrupt.LINES[interrupt.signal.SIGINT], file=sys.stderr)
+        return interrupt.EXIT_CODES[interrupt.signal.SIGINT]
+
+
+def _main(argv) -> int:
+    parser, args = parse(argv)
+    if args is None:
+        parser.print_help()
+        return 0
+    cmd = args._command
+    staging = _stage_outputs(parser, args)
+    with interrupt.guard(cleanup=staging.discard):
+        try:
+            if cmd.before_jax is not None:
+                cmd.before_jax(args)
+            if cmd.compile_cache:
+                _enable_compile_cache()
+            record, summary = cmd.run(args, _progress)
+        except UsageError as e:
+            staging.discard()
+            parser.error(str(e))
+        except OSError as e:  # a full disk or a folder made read-only meanwhile: one line, not a traceback
+            ours = staging.owns(e.filename) or staging.owns(e.filename2)
+            staging.discard()
+            if not ours:
+                raise
+            return _fail(f"{cmd.name}: could not write the outputs: {e.strerror or e}", 1)
+        except BaseException:
+            staging.discard()
+            raise
+        try:
+            with interrupt.critical():
+                staging.commit()
+        except OSError as e:
+            staging.discard()
+            return _fail(f"{cmd.name}: could not move the outputs into place: {e}", 1)
+    _emit(staging.rename_paths(record), args.json, summary)
     return 0
 
 

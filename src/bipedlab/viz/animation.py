@@ -18,12 +18,12 @@ mean x. Widths are in pixels; colours are any matplotlib colour. Subsample long 
 """
 from __future__ import annotations
 
-import json
 from html import escape
 from pathlib import Path
 
 import numpy as np
 
+from bipedlab.outputs import dumps_json
 from bipedlab.viz.stick import as_frames
 
 DECIMALS = 6
@@ -162,7 +162,7 @@ def _html(sc: dict, size_px: int, title: str) -> str:
     data = dict(times=r(sc["times"]), duration=sc["duration"], frames=r(sc["frames"].reshape(len(sc["frames"]), -1, 4)),
                 ground=None if sc["ground"] is None else r(sc["ground"]), ground_color=GROUND_COLOR,
                 shift=r(sc["shift"]), view=r(sc["view"]), colors=sc["colors"], widths=sc["widths"])
-    blob = json.dumps(data, separators=(",", ":")).replace("</", "<\\/")
+    blob = dumps_json(data, separators=(",", ":")).replace("</", "<\\/")  # strict: JSON.parse takes no NaN
     return (f'<!DOCTYPE html>\n<html lang="en">\n<head><meta charset="utf-8"><title>{escape(title)}</title></head>\n'
             f'<body>\n<canvas id="bipedlab-canvas" width="{width_px}" height="{height_px}"></canvas>\n'
             f'<script type="application/json" id="bipedlab-animation">{blob}</script>\n'

@@ -2,49 +2,72 @@
 :mod:`bipedlab.cli`; the study module is imported inside ``run``)."""
 from __future__ import annotations
 
+import argparse
 import math
 
-from bipedlab.cli import Command, UsageError, nonnegative_float, positive_float, positive_int
+from bipedlab.cli import SEED, Command, UsageError, add_out, float_in, int_in
+
+#: the controller-model parameters --model-error may scale (the study's MODEL_ERRORS)
+MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
+MODEL_ERROR = float_in(-0.9, 2.0)  # relative: the controller assumes 0.1 to 3 times the true value
+
+
+def model_error_value(value: str) -> tuple:
+    """argparse type of one --model-error item: 'NAME=REL' -> (name, rel)."""
+    name, sep, rel = value.partition("=")
+    if not sep or name not in MODEL_ERRORS:
+        raise argparse.ArgumentTypeError(f"expected NAME=REL with NAME one of {', '.join(MODEL_ERRORS)}, "
+                                         f"got {value!r}")
+    try:
+        r = float(rel)
+    except ValueError:
+        r = math.nan
+    if not (math.isfinite(r) and MODEL_ERROR.lo <= r <= MODEL_ERROR.hi):
+        raise argparse.ArgumentTypeError(f"expected {name}=REL with REL a number in {MODEL_ERROR.text}, got {value!r}")
+    return name, r
 
 
 def _run_arguments(p) -> None:
     p.add_argument("--terrain", choices=["flat", "rough", "slope"], default="flat",
                    help="flat ground, random steps every 3 m, or a constant slope (default flat)")
-    p.add_argument("--step-height", type=nonnegative_float, default=None, metavar="H",
-                   help="rough: largest step height in m, steps uniform in [-H, H] (default 0.25)")
-    p.add_argument("--slope", type=float, default=None, metavar="PCT", help="slope: grade in percent (default 1)")
+    p.add_argument("--step-height", type=float_in(0.0, 0.5), default=None, metavar="H",
+                   help="rough: largest step height in m, steps uniform in -H..H (default 0.25)")
+    p.add_argument("--slope", type=float_in(-30.0, 30.0), default=None, metavar="PCT",
+                   help="slope: grade in percent (default 1)")
     span = p.add_mutually_exclusive_group()
-    span.add_argument("--seconds", type=positive_float, default=None, metavar="T", help="simulated time in s")
-    span.add_argument("--distance", type=positive_float, default=None, metavar="D",
+    span.add_argument("--seconds", type=float_in(0.1, 600.0), default=None, metavar="T", help="simulated time in s")
+    span.add_argument("--distance", type=float_in(1.0, 2000.0), default=None, metavar="D",
                       help="distance to run in m (default 60)")
     p.add_argument("--noise", action="store_true",
                    help="sensor noise of Section IV-C: +-3 deg, +-3 deg/s, +-3 cm, +-3 cm/s, sampled every 3 ms")
-    p.add_argument("--delay-ms", type=nonnegative_float, default=0.0, metavar="MS", help="sensing delay in ms")
-    p.add_argument("--model-error", nargs="+", action="extend", default=[], metavar="NAME=REL",
-                   help="relative error of a model parameter the controller assumes, e.g. mass=0.2 inertia=-0.5")
+    p.add_argument("--delay-ms", type=float_in(0.0, 100.0), default=0.0, metavar="MS", help="sensing delay in ms")
+    p.add_argument("--model-error", type=model_error_value, nargs="+", action="extend", default=[], metavar="NAME=REL",
+                   help=f"relative error of a model parameter the controller assumes, e.g. mass=0.2 inertia=-0.5; "
+                        f"NAME one of {', '.join(MODEL_ERRORS)}, REL in {MODEL_ERROR.text}, each NAME once")
     p.add_argument("--energy", choices=["conservation", "regulation"], default="regulation",
                    help="stance energy management (default regulation)")
-    p.add_argument("--trials", type=positive_int, default=None, metavar="N",
+    p.add_argument("--trials", type=int_in(1, 100_000), default=None, metavar="N",
                    help="run N random terrains (and noise / model-error draws) batched in one compiled call")
-    p.add_argument("--seed", type=int, default=0, help="seed of the terrain and noise draws")
-    p.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the terrain and noise draws")
+    add_out(p)
 
 
-def _run(args, progress):
-    """Validate the options (UsageError on bad input), then run the study with its own
-    progress bar on stderr."""
-    from bipedlab.robots.atrias import study as run_atrias
-
-    try:
-        errs = run_atrias.parse_model_errors(args.model_error or [])
-    except ValueError as e:
-        raise UsageError(str(e)) from None
+def _run_validate(args) -> None:
+    names = [n for n, _ in args.model_error]
+    twice = sorted({n for n in names if names.count(n) > 1})
+    if twice:
+        raise UsageError(f"--model-error: {', '.join(twice)} given more than once")
     if args.step_height is not None and args.terrain != "rough":
         raise UsageError(f"--step-height applies to --terrain rough, not {args.terrain}")
     if args.slope is not None and args.terrain == "flat":
         raise UsageError("--slope applies to --terrain slope or rough, not flat")
-    if args.slope is not None and not (math.isfinite(args.slope) and abs(args.slope) <= 30.0):
-        raise UsageError(f"--slope must be a grade within +-30 percent, got {args.slope}")
+
+
+def _run(args, progress):
+    """Run the study (options validated by _run_validate) with its own progress bar on stderr."""
+    from bipedlab.robots.atrias import study as run_atrias
+
+    errs = tuple(args.model_error)
     st = run_atrias.Settings(
         terrain=args.terrain, step_height=0.25 if args.step_height is None else float(args.step_height),
         slope=1.0 if args.slope is None else float(args.slope), seconds=args.seconds,
@@ -56,5 +79,5 @@ def _run(args, progress):
 
 COMMANDS = [
     Command("run", "atrias", "spring-mass running embedded in the articulated ATRIAS-like biped on unobserved terrain",
-            _run_arguments, _run),
+            _run_arguments, _run, validate=_run_validate),
 ]

@@ -29,6 +29,7 @@ from bipedlab.robots.atrias import robot as at
 from bipedlab.robots.atrias import loop as ar
 from bipedlab.robots.atrias import slip_run
 from bipedlab.contact import terrain as tr
+from bipedlab.outputs import dump_json
 
 MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
 SKIP_APEX = 2
@@ -231,7 +232,7 @@ def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
     data.update(slip_bounce=sr.bounce, slip_speed=sr.speed, slip_apex_y=sr.apex_y, slip_x=sr.x)
     np.savez(os.path.join(out_dir, "run_atrias.npz"), **data)
     with open(os.path.join(out_dir, "run_atrias.json"), "w") as fh:
-        json.dump(rec, fh, indent=1, allow_nan=True, default=float)
+        dump_json(rec, fh, indent=1)  # strict JSON: a fallen trial's NaN statistics as null
     from bipedlab.robots.atrias import plots as run_plots
 
     run_plots.write_all(out_dir, out, sr, cp, gait)

@@ -16,7 +16,8 @@ from . import model as cg
 from . import walker
 
 
-def walk(slope_deg: float = 3.0, steps: int = 20, perturb: float = 0.0, seed: int = 0, out: str | None = None):
+def walk(slope_deg: float = 3.0, steps: int = 20, perturb: float = 0.0, seed: int = 0, out: str | None = None,
+         progress=None):
     """Find the period-one gait on a ``slope_deg`` (degrees) slope, then walk ``steps`` steps
     from the fixed point displaced by ``perturb`` (Euclidean norm of the displacement in
     [rad, rad, rad/s, rad/s], random direction from ``seed``).
@@ -29,8 +30,11 @@ def walk(slope_deg: float = 3.0, steps: int = 20, perturb: float = 0.0, seed: in
     max_abs_eigenvalue; stable (fixed point found and all |eigenvalues| < 1);
     jacobian_fd_error (max |exact - central-difference| Jacobian entry); residual;
     steps_completed; fell; distance_to_fixed_point (after each completed step, norm of the
-    section state minus the fixed point); step_periods_s; png (path or None)."""
+    section state minus the fixed point); step_periods_s; png (path or None). ``progress(msg)``
+    hears when the walk starts."""
     g = walker.period_one_gait(np.radians(slope_deg))
+    if progress is not None:
+        progress(f"walking {steps} steps from the fixed point")
     p = cg.params(slope_deg)
     rng = np.random.default_rng(seed)
     d = rng.normal(size=4)

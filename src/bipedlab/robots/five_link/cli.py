@@ -3,22 +3,28 @@
 inside ``run``)."""
 from __future__ import annotations
 
-from bipedlab.cli import Command, UsageError, nonnegative_float, positive_float, positive_int
+import os
+
+from bipedlab.cli import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
 
 ROBOT = "five-link"
 CONTROLLERS = ["iolin", "pd"]
+STEPS = int_in(1, 10_000)
+SPEED = float_in(0.1, 2.0)  # m/s: a leg of 0.8 m walks, it does not run
+PERTURB = float_in(0.0, 1.0)  # relative: 1 already doubles a state component at one sigma
 
 
 def _out(p) -> None:
-    p.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+    add_out(p)
 
 
 # ----------------------------------------------------------------------------- bench
 def _bench_arguments(p) -> None:
-    p.add_argument("--batch", type=positive_int, nargs="+", default=[64, 256], metavar="N",
+    p.add_argument("--batch", type=int_in(1, 1 << 20), nargs="+", default=[64, 256], metavar="N",
                    help="batch sizes for the batched bipedlab runs (64 is always run)")
-    p.add_argument("--seconds", type=positive_float, default=2.0, help="simulated seconds per rollout")
-    p.add_argument("--threads", type=positive_int, default=None,
+    # at least 40 substeps of 0.25 ms, so that the rate is measured, not the call overhead
+    p.add_argument("--seconds", type=float_in(0.01, 60.0), default=2.0, help="simulated seconds per rollout")
+    p.add_argument("--threads", type=int_in(1, 1024), default=None,
                    help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
     p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
 
@@ -39,11 +45,11 @@ def _bench(args, progress):
 
 # ----------------------------------------------------------------------------- optimize
 def _optimize_arguments(p) -> None:
-    p.add_argument("--speed", type=positive_float, default=0.8, help="walking speed, m/s")
+    p.add_argument("--speed", type=SPEED, default=0.8, help="walking speed, m/s")
     p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
     p.add_argument("--controller", choices=CONTROLLERS, default="iolin", help="controller for the Poincaré analysis")
-    p.add_argument("--save", metavar="FILE", help="write the gait to FILE (for walk --gait FILE)")
+    add_save(p, "the gait (for walk --gait FILE)")
     _out(p)
 
 
@@ -56,13 +62,18 @@ def _optimize(args, progress):
 
 # ----------------------------------------------------------------------------- walk
 def _walk_arguments(p) -> None:
-    p.add_argument("--steps", type=positive_int, default=None, help="number of steps (default 50)")
-    p.add_argument("--perturb", type=nonnegative_float, default=0.0,
+    p.add_argument("--steps", type=STEPS, default=None, help="number of steps (default 50)")
+    p.add_argument("--perturb", type=PERTURB, default=0.0,
                    help="relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
     p.add_argument("--controller", choices=CONTROLLERS, default=None, help="iolin | pd (default iolin)")
-    p.add_argument("--gait", metavar="GAIT", help="a gait file from optimize --save (default: the shipped gait)")
-    p.add_argument("--seed", type=int, default=0, help="seed of the perturbation")
+    p.add_argument("--gait", type=text, metavar="GAIT", help="a gait file from optimize --save (default: the shipped gait)")
+    p.add_argument("--seed", type=SEED, default=0, help="seed of the perturbation")
     _out(p)
+
+
+def _walk_validate(args) -> None:
+    if args.gait is not None and not os.path.isfile(args.gait):
+        raise UsageError(f"--gait: {args.gait!r} is not a file")
 
 
 def _walk(args, progress):
@@ -82,5 +93,5 @@ COMMANDS = [
             _bench_arguments, _bench, compile_cache=False, before_jax=_bench_cores),
     Command("optimize", ROBOT, "design a periodic HZD walking gait by optimisation", _optimize_arguments, _optimize),
     Command("walk", ROBOT, "closed-loop HZD walking on a designed gait, optionally from a perturbed state",
-            _walk_arguments, _walk),
+            _walk_arguments, _walk, validate=_walk_validate),
 ]

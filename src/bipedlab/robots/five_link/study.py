@@ -17,6 +17,7 @@ from bipedlab.gait import gaitfile
 from bipedlab.gait import optimize as go
 from bipedlab.gait import walking as gw
 from bipedlab.mechanics.dynamics import total_mass
+from bipedlab.outputs import json_safe
 from bipedlab.robots.five_link import robot as five_link
 from bipedlab.sim.rollout import STATUS_NAMES
 
@@ -82,7 +83,8 @@ def optimize(speed: float = 0.8, cost: str = "torque", controller: str = "iolin"
         optimize_warm_s=res.warm_s, optimize_cold_s=res.cold_s, **pc,
     )
     if save:
-        gaitfile.save(save, ROBOT, vc, z_minus, design={k: v for k, v in rec.items() if k != "message"})
+        # strict JSON in the file: a figure that is not finite (a failed analysis) is saved as null
+        gaitfile.save(save, ROBOT, vc, z_minus, design=json_safe({k: v for k, v in rec.items() if k != "message"}))
     if out:
         from bipedlab.robots.five_link import plots as hzd_plots
 

@@ -5,26 +5,49 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
 
-from bipedlab.cli import Command, UsageError, nonnegative_float, positive_float, positive_int
+from bipedlab.cli import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
 
 ROBOT = "mabel"
 EXPERIMENTS = ["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep"]
+GAITS = ("nominal", "efficient", "fast")
+STEPS = int_in(1, 10_000)
+SPEED = float_in(0.1, 2.0)         # m/s; the designed gaits span 0.6-1.6
+STEP_LENGTH = float_in(0.2, 1.0)   # m; legs of 1 m, reached by continuation in 3 cm solves
+IMPACT_SCALE = float_in(0.5, 1.5)  # Table I spans 0.96-1
+LEAN = float_in(-45.0, 45.0)       # deg
+PUSH_FORCE = 1000.0                # N, |force| at most (the robot weighs about 650 N)
+PUSH_STEP = 10                     # the push experiment's step (experiments.PUSH_STEP)
+STEADY_STEPS = 10                  # impact-scaling: steady speed over the last 10 steps
 
 
 def _out(p, what: str = "figures (PNG) and data (NPZ)") -> None:
-    p.add_argument("--out", metavar="DIR", help=f"write {what} to DIR")
+    add_out(p, what)
+
+
+def push_value(value: str) -> tuple:
+    """argparse type of --push: 'FORCE@STEP' -> (force in N, step index)."""
+    force, sep, step = value.partition("@")
+    try:
+        f, k = float(force), int(step)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"expected FORCE@STEP (e.g. 78@10 or -71@30), got {value!r}") from None
+    if not sep or not (math.isfinite(f) and abs(f) <= PUSH_FORCE) or not 0 <= k <= STEPS.hi - 1:
+        raise argparse.ArgumentTypeError(f"expected FORCE@STEP with FORCE in [{-PUSH_FORCE:g}, {PUSH_FORCE:g}] N "
+                                         f"and STEP in [0, {STEPS.hi - 1}], got {value!r}")
+    return f, k
 
 
 # ----------------------------------------------------------------------------- optimize
 def _optimize_arguments(p) -> None:
-    p.add_argument("--speed", type=positive_float, default=0.8, help="walking speed, m/s")
-    p.add_argument("--step-length", type=positive_float, default=None, metavar="L",
+    p.add_argument("--speed", type=SPEED, default=0.8, help="walking speed, m/s")
+    p.add_argument("--step-length", type=STEP_LENGTH, default=None, metavar="L",
                    help="prescribe the step length in m (e.g. 0.575, the paper's nominal gait)")
     p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
     p.add_argument("--no-poincare", action="store_true", help="skip the Poincaré analysis")
-    p.add_argument("--save", metavar="FILE", help="write the gait to FILE (for walk --gait FILE)")
+    add_save(p, "the gait (for walk --gait FILE)")
     _out(p)
 
 
@@ -38,24 +61,36 @@ def _optimize(args, progress):
 
 # ----------------------------------------------------------------------------- walk
 def _walk_arguments(p) -> None:
-    p.add_argument("--steps", type=positive_int, default=None, help="number of steps (default 100)")
+    p.add_argument("--steps", type=STEPS, default=None, help="number of steps (default 100)")
     p.add_argument("--controller", choices=["pdff", "iolin", "decentralized"], default=None,
                    help="pdff | iolin | decentralized (default pdff)")
-    p.add_argument("--gait", metavar="GAIT", help="nominal | efficient | fast or a gait file from optimize --save "
-                                                  "(default nominal)")
-    p.add_argument("--push", metavar="FORCE@STEP", help="horizontal force (N, + forward) on the hip over the second "
-                                                        "half of step STEP")
-    p.add_argument("--impact-scale", type=positive_float, default=1.0, metavar="ETA",
+    p.add_argument("--gait", type=text, metavar="GAIT", help="nominal | efficient | fast or a gait file from optimize "
+                                                             "--save (default nominal)")
+    p.add_argument("--push", type=push_value, metavar="FORCE@STEP",
+                   help=f"horizontal force (N, + forward, |FORCE| <= {PUSH_FORCE:g}) on the hip over the second "
+                        "half of step STEP (counted from 0, before --steps)")
+    p.add_argument("--impact-scale", type=IMPACT_SCALE, default=1.0, metavar="ETA",
                    help="impact scaling eta of Section VI-B (post-impact velocity / eta)")
-    p.add_argument("--lean", type=float, default=0.0, metavar="DEG",
+    p.add_argument("--lean", type=LEAN, default=0.0, metavar="DEG",
                    help="lean the torso forward by DEG degrees (swing leg's absolute angle kept), ramped in over "
                         "--lean-steps steps, as in Exp. 5")
-    p.add_argument("--lean-steps", type=positive_int, default=20, metavar="N",
+    p.add_argument("--lean-steps", type=STEPS, default=None, metavar="N",
                    help="steps over which --lean is ramped in (default 20)")
     p.add_argument("--sensing", choices=["encoders", "observer", "ideal"], default="encoders",
                    help="14-bit encoders with filtered differentiated velocities (default), the same encoders "
                         "with a model-based velocity observer, or the exact state")
     _out(p)
+
+
+def _walk_validate(args) -> None:
+    steps = args.steps or 100
+    if args.push is not None and args.push[1] >= steps:
+        raise UsageError(f"--push {args.push[0]:g}@{args.push[1]}: step {args.push[1]} is never reached in "
+                         f"{steps} steps (0 to {steps - 1}); raise --steps or push earlier")
+    if args.lean_steps is not None and args.lean == 0.0:
+        raise UsageError("--lean-steps applies with a non-zero --lean")
+    if args.gait is not None and args.gait not in GAITS and not os.path.isfile(args.gait):
+        raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(GAITS)}) nor a file")
 
 
 def _walk(args, progress):
@@ -64,21 +99,35 @@ def _walk(args, progress):
     gait = args.gait or "nominal"
     try:
         wm.load_gait(gait)
-        wm.parse_push(args.push)
     except ValueError as e:
         raise UsageError(str(e)) from None
-    if not (math.isfinite(args.lean) and abs(args.lean) <= 45.0):
-        raise UsageError(f"mabel: --lean must be within +-45 degrees, got {args.lean}")
-    rec = wm.walk(gait, args.controller or "pdff", args.steps or 100, push=args.push, eta=args.impact_scale,
-                  sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean, lean_steps=args.lean_steps)
+    push = None if args.push is None else f"{args.push[0]!r}@{args.push[1]}"
+    lean_steps = 20 if args.lean_steps is None else args.lean_steps
+    rec = wm.walk(gait, args.controller or "pdff", args.steps or 100, push=push, eta=args.impact_scale,
+                  sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean, lean_steps=lean_steps)
     return rec, wm.summary_walk
 
 
 # ----------------------------------------------------------------------------- experiment
 def _experiment_arguments(p) -> None:
     p.add_argument("name", choices=EXPERIMENTS, help=" | ".join(EXPERIMENTS))
-    p.add_argument("--steps", type=positive_int, default=None, help="steps per walk (defaults per experiment)")
+    p.add_argument("--steps", type=STEPS, default=None,
+                   help=f"steps per walk (defaults per experiment; push: at least {PUSH_STEP + 1}, to reach the push "
+                        f"in step {PUSH_STEP}; impact-scaling: at least {STEADY_STEPS}; not for sweep)")
     _out(p)
+
+
+def _experiment_validate(args) -> None:
+    if args.steps is None:
+        return
+    if args.name == "sweep":
+        raise UsageError("sweep: --steps does not apply (the sweep designs gaits, it does not walk them)")
+    if args.name == "push" and args.steps <= PUSH_STEP:
+        raise UsageError(f"push: --steps must be at least {PUSH_STEP + 1} to reach the push in step {PUSH_STEP} "
+                         f"(counted from 0), got {args.steps}")
+    if args.name == "impact-scaling" and args.steps < STEADY_STEPS:
+        raise UsageError(f"impact-scaling: --steps must be at least {STEADY_STEPS} (the steady speed is the mean of "
+                         f"the last {STEADY_STEPS} steps), got {args.steps}")
 
 
 def _experiment(args, progress):
@@ -89,13 +138,13 @@ def _experiment(args, progress):
 
 # ----------------------------------------------------------------------------- hop
 def _hop_arguments(p) -> None:
-    p.add_argument("--hops", type=positive_int, default=100, help="hops to simulate (default 100)")
+    p.add_argument("--hops", type=int_in(1, 10_000), default=100, help="hops to simulate (default 100)")
     p.add_argument("--no-torso-update", action="store_true",
                    help="the nominal controller, without the event-based torso update (44)")
     p.add_argument("--no-poincare", action="store_true", help="skip the Poincaré analysis")
     p.add_argument("--accuracy", action="store_true",
                    help="also compare the integrator against finer steps and RK4 on the first hop")
-    p.add_argument("--robustness", type=positive_int, default=None, metavar="N",
+    p.add_argument("--robustness", type=int_in(1, 1000), default=None, metavar="N",
                    help="also drop the robot from N perturbed states and count hops with and without the update")
     _out(p)
 
@@ -113,10 +162,10 @@ def _identify_arguments(p) -> None:
     source = p.add_mutually_exclusive_group(required=True)
     source.add_argument("--synthetic", action="store_true",
                         help="generate the paper's experiments on a perturbed true robot and identify it")
-    source.add_argument("--data", metavar="DIR",
+    source.add_argument("--data", type=text, metavar="DIR",
                         help="identify from the CSV logs in DIR (format: bipedlab.robots.mabel.sysid.logs)")
-    p.add_argument("--seed", type=int, default=None, help="synthetic: seed of the true robot and the noise (default 0)")
-    p.add_argument("--noise", type=nonnegative_float, default=None, metavar="LEVEL",
+    p.add_argument("--seed", type=SEED, default=None, help="synthetic: seed of the true robot and the noise (default 0)")
+    p.add_argument("--noise", type=float_in(0.0, 100.0), default=None, metavar="LEVEL",
                    help="synthetic: rms encoder noise in counts, also scaling amplifier and scale noise (default 1)")
     p.add_argument("--noise-study", action="store_true",
                    help="synthetic: also repeat the identification at noise levels 0, 1, 2 and 4")
@@ -124,12 +173,17 @@ def _identify_arguments(p) -> None:
     _out(p, "figures (PNG) and, for --synthetic, the logs (CSV)")
 
 
+def _identify_validate(args) -> None:
+    if args.data is not None and (args.seed is not None or args.noise is not None or args.noise_study):
+        raise UsageError("--seed, --noise and --noise-study apply to --synthetic only")
+    if args.data is not None and not os.path.isdir(args.data):
+        raise UsageError(f"--data: {args.data!r} is not a folder")
+
+
 def _identify(args, progress):
     from bipedlab.robots.mabel.sysid import LogError
     from bipedlab.robots.mabel.sysid import study as im
 
-    if args.data is not None and (args.seed is not None or args.noise is not None or args.noise_study):
-        raise UsageError("--seed, --noise and --noise-study apply to --synthetic only")
     try:
         rec = im.study(data=args.data, seed=args.seed or 0, noise=1.0 if args.noise is None else args.noise,
                        out=args.out, quick=args.quick, noise_levels=(0.0, 1.0, 2.0, 4.0) if args.noise_study else None,
@@ -142,9 +196,10 @@ def _identify(args, progress):
 COMMANDS = [
     Command("optimize", ROBOT, "design a compliant-HZD walking gait by optimisation", _optimize_arguments, _optimize),
     Command("walk", ROBOT, "the experiments' closed loop: HZD walking on a designed gait, pushes, impact scaling, lean",
-            _walk_arguments, _walk),
-    Command("experiment", ROBOT, "walking experiments: " + "|".join(EXPERIMENTS), _experiment_arguments, _experiment),
+            _walk_arguments, _walk, validate=_walk_validate),
+    Command("experiment", ROBOT, "walking experiments: " + "|".join(EXPERIMENTS), _experiment_arguments, _experiment,
+            validate=_experiment_validate),
     Command("hop", ROBOT, "two-legged hopping on the 13-DoF model, with Poincaré analysis", _hop_arguments, _hop),
     Command("identify", ROBOT, "system identification from synthetic experiments or logged data",
-            _identify_arguments, _identify),
+            _identify_arguments, _identify, validate=_identify_validate),
 ]

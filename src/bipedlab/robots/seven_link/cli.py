@@ -3,18 +3,19 @@ seven-link free-swing|low-gain-pd`` (registered with :mod:`bipedlab.cli`; the st
 imported inside ``run``)."""
 from __future__ import annotations
 
-from bipedlab.cli import Command, positive_int
+from bipedlab.cli import Command, UsageError, add_out, int_in
 
 ROBOT = "seven-link"
 EXPERIMENTS = ["free-swing", "low-gain-pd"]
+STEPS = int_in(1, 10_000)
 
 
 def _out(p) -> None:
-    p.add_argument("--out", metavar="DIR", help="write figures (PNG) and data (NPZ) to DIR")
+    add_out(p)
 
 
 def _walk_arguments(p) -> None:
-    p.add_argument("--steps", type=positive_int, default=None, help="number of steps (default 30)")
+    p.add_argument("--steps", type=STEPS, default=None, help="number of steps (default 30)")
     p.add_argument("--params", choices=["paper", "tuned"], default=None,
                    help="the controller's Table II parameters as published, or retuned for the planar model "
                         "(default tuned)")
@@ -31,15 +32,12 @@ def _walk(args, progress):
 
 def _experiment_arguments(p) -> None:
     p.add_argument("name", choices=EXPERIMENTS, help=" | ".join(EXPERIMENTS))
-    p.add_argument("--steps", type=positive_int, default=None, help="accepted for symmetry with mabel; no effect")
     _out(p)
 
 
 def _experiment(args, progress):
     from bipedlab.robots.seven_link import study as walk_seven_link
 
-    if args.steps is not None:
-        progress(f"seven-link {args.name}: --steps has no effect on this experiment")
     run = walk_seven_link.free_swing if args.name == "free-swing" else walk_seven_link.low_gain_pd
     return run(out=args.out, progress=progress), walk_seven_link.summary_experiment
 

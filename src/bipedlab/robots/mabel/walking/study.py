@@ -15,7 +15,6 @@ ship with the package.
 """
 from __future__ import annotations
 
-import json
 import time
 
 from pathlib import Path
@@ -27,6 +26,7 @@ import numpy as np
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.gait import gaitfile
+from bipedlab.outputs import dump_json
 from bipedlab.robots.mabel.walking import gait_schema
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking import poincare as mp
@@ -216,7 +216,8 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
         rec.update(max_abs_eigenvalue=None, poincare_eigenvalues=None)
     if save:
         name = Path(save).stem
-        Path(save).write_text(json.dumps(record(name, d, gains, speed, cost, pc), indent=1, default=float))
+        with open(save, "w") as fh:  # strict JSON: a failed analysis' NaN as null
+            dump_json(record(name, d, gains, speed, cost, pc), fh, indent=1)
         rec["saved"] = str(save)
     if out:
         from bipedlab.robots.mabel.walking import plots as wp
