@@ -78,7 +78,10 @@ def arx(y, u, lags: int = 1, delay: int = 1, instrumental: int = 0):
         a1 = min(float(coef[0]), 1.0 - 1e-9)
         x = _simulate(a1, coef[1:1 + lags], float(coef[-1]), u, y[0], delay)
         Z, _ = _regressors(x, u, lags, delay)
-        coef = np.linalg.solve(Z.T @ Phi, Z.T @ target)
+        try:
+            coef = np.linalg.solve(Z.T @ Phi, Z.T @ target)
+        except np.linalg.LinAlgError:  # the simulated output gives no instruments: keep the last model
+            break
     return float(coef[0]), np.asarray(coef[1:1 + lags]), float(coef[-1])
 
 
@@ -110,6 +113,8 @@ def arx_bias(u, theta=None, lags: int = 2, block: int = 10, instrumental: int = 
         raise ValueError("arx_bias: too few samples for the ARX fit")
     a1, b, b2 = arx(y, u, lags, delay, instrumental)
     gain = float(np.sum(b))
+    if not (np.isfinite(gain) and gain != 0.0):
+        raise ValueError("arx_bias: the command has no effect on the speed (sum of the b coefficients is 0)")
     mu_exp = (1.0 - a1) / gain if gain else np.nan          # steady gain of the speed is 1/mu_exp
     J_exp = -dt * mu_exp / np.log(a1) if 0.0 < a1 < 1.0 else np.nan
     return ArxBias(a1=a1, b=b, b2=b2, bias=b2 / gain, J_exp=float(J_exp), mu_exp=float(mu_exp))

@@ -46,6 +46,18 @@ hopping         release_s (optional; rows before it:   u_ of all four motors, en
                                                        bsp_R mla_L mls_L mla_R mls_R
 ==============  =====================================  ==========================================
 
+Columns must agree with the experiment: every column is ``time_s``, ``u_`` of an actuator,
+``enc_`` of an encoder above or ``scale_N``; a bias or transmission log commands its actuator
+only, a leg log only motors of its side (one for ``mode: siso``, both for ``mode: mimo``, the
+ones ``actuated`` lists), static logs (spring, balance) command nothing, and only spring logs
+read the scale. Values are finite and within :data:`BOUNDS` (|time| 1e7 s, |command| 1000 N m,
+|angle| 1e6 rad, |force| 1e5 N). Metadata values are parsed and range-checked: ``release_s``
+(s, from 0 to the end of the log), ``boom_radius`` (m, :data:`BOOM_RADIUS`), ``cad_inertia``
+(kg m^2, :data:`CAD_INERTIA`; a pulley combination at the motor is of order 1e-4).
+
+Each log must also give its estimator something to fit (rows, postures, a command that varies
+and a motor that moves, a full-rank regressor: :mod:`.preconditions`).
+
 A log that breaks these rules raises :class:`LogError`, one line naming the file and the
 problem (a missing column, time that does not increase, a NaN, units other than the above).
 """
@@ -66,6 +78,13 @@ _UNIT_ALIASES = {"N*m": {"N*m", "Nm", "N.m", "N m", "N·m"}}
 HOP_ENCODERS = ("boom_h", "boom_v", "tor", "la_L", "ls_L", "la_R", "ls_R", "bsp_L", "bsp_R",
                 "mla_L", "mls_L", "mla_R", "mls_R")
 TITLE = "bipedlab sysid log 1"
+#: largest |value| of each column family (time s, command N m, encoder rad, scale N)
+BOUNDS = {"time_s": 1e7, "u_": 1e3, "enc_": 1e6, "scale_N": 1e5}
+#: ranges of numeric metadata: the boom's radius (m), a pulley combination's CAD inertia at the
+#: motor (kg m^2); release_s must lie within the log
+BOOM_RADIUS = (0.5, 10.0)
+CAD_INERTIA = (1e-7, 1e-2)
+STATIC = ("spring", "balance")
 
 
 class LogError(ValueError):
@@ -84,6 +103,8 @@ class Experiment:
     enc: dict
     scale: np.ndarray | None = None
     meta: dict = dataclasses.field(default_factory=dict)
+    #: the file it was read from ("" when built in memory)
+    source: str = dataclasses.field(default="", compare=False, repr=False)
 
     def U(self, actuators) -> np.ndarray:
         """Commands (N, len(actuators)) in the given order."""
@@ -169,13 +190,81 @@ def _required(kind: str, meta: dict, path) -> list[str]:
     return ["time_s"] + [f"u_{a}" for a in tb.ACTUATORS] + [f"enc_{c}" for c in HOP_ENCODERS]
 
 
+def _column_problem(h: str) -> str | None:
+    if h in ("time_s", "scale_N"):
+        return None
+    if h.startswith("u_"):
+        if h[2:] in tb.ACTUATORS:
+            return None
+        return f"column '{h}' names no actuator (expected u_ followed by one of {', '.join(tb.ACTUATORS)})"
+    if h.startswith("enc_"):
+        if h[4:] in HOP_ENCODERS:
+            return None
+        return f"column '{h}' names no encoder (expected enc_ followed by one of {', '.join(HOP_ENCODERS)})"
+    return f"column '{h}' is not a log column (time_s, u_<actuator>, enc_<encoder>, scale_N)"
+
+
+def _contradiction(kind: str, meta: dict, header: list) -> str | None:
+    """Why the columns contradict the experiment kind, or None."""
+    u = [h[2:] for h in header if h.startswith("u_")]
+    if "scale_N" in header and kind != "spring":
+        return f"column 'scale_N' in a {kind} log (only spring logs read the scale)"
+    if kind in ("bias", "transmission"):
+        extra = [a for a in u if a != meta["actuator"]]
+        if extra:
+            return f"column 'u_{extra[0]}' in a {kind} log of actuator {meta['actuator']} (it commands that one only)"
+    if kind in STATIC and u:
+        return f"column 'u_{u[0]}' in a static {kind} log (the robot is posed, not commanded)"
+    if kind == "leg":
+        side = meta["side"]
+        other = [a for a in u if not a.endswith(f"_{side}")]
+        if other:
+            return f"column 'u_{other[0]}' in a leg log of side {side} (only mLA_{side}, mLS_{side} belong to it)"
+        mode = meta.get("mode")
+        if mode is not None:
+            if mode not in ("siso", "mimo"):
+                return f"metadata mode={mode!r}; expected siso or mimo"
+            want = 1 if mode == "siso" else 2
+            if len(u) != want:
+                return (f"a {mode} leg log with {len(u)} command column{'s' * (len(u) != 1)} "
+                        f"({', '.join('u_' + a for a in u)}); {mode} means {want}")
+        if "actuated" in meta and sorted(meta["actuated"].split()) != sorted(u):
+            return (f"metadata actuated={meta['actuated']!r} but the commands logged are "
+                    f"{', '.join('u_' + a for a in u)}")
+    return None
+
+
+def _metadata_number(path, meta: dict, key: str, low: float, high: float, unit: str) -> None:
+    if key not in meta:
+        return
+    try:
+        x = float(meta[key])
+    except ValueError:
+        _fail(path, f"metadata {key}={meta[key]!r} is not a number ({unit})")
+    if not (np.isfinite(x) and low <= x <= high):
+        _fail(path, f"metadata {key}={meta[key]} is outside [{low:g}, {high:g}] {unit}")
+
+
+def _csv_rows(path, lines):
+    try:
+        return list(csv.reader(lines))
+    except csv.Error as e:
+        _fail(path, f"is not CSV ({e})")
+
+
 def read_log(path) -> Experiment:
     """Read and check one CSV log; raise :class:`LogError` naming the file and the problem."""
+    from bipedlab.robots.mabel.sysid import preconditions
+
     path = Path(path)
     try:
-        text = path.read_text()
-    except (OSError, UnicodeDecodeError) as e:
-        _fail(path, f"cannot be read ({e.__class__.__name__})")
+        text = path.read_text(encoding="utf-8")
+    except UnicodeDecodeError as e:
+        _fail(path, f"cannot be read (not UTF-8 text: byte 0x{e.object[e.start]:02x} at offset {e.start})")
+    except OSError as e:
+        _fail(path, f"cannot be read ({e.strerror or e.__class__.__name__})")
+    if "\0" in text:
+        _fail(path, "cannot be read (a NUL byte: not a text file)")
     lines = text.splitlines()
     meta, i = {}, 0
     while i < len(lines) and lines[i].startswith("#"):
@@ -191,7 +280,7 @@ def read_log(path) -> Experiment:
         _fail(path, f"unknown experiment {kind!r}; expected one of {', '.join(KINDS)}")
     if i >= len(lines) or not lines[i].strip():
         _fail(path, "no header row after the metadata")
-    header = [h.strip() for h in next(csv.reader([lines[i]]))]
+    header = [h.strip() for h in _csv_rows(path, [lines[i]])[0]]
     if len(set(header)) != len(header):
         _fail(path, "a column name appears twice in the header")
     if "units" not in meta:
@@ -200,10 +289,22 @@ def read_log(path) -> Experiment:
     for col in _required(kind, meta, path):
         if col not in header:
             _fail(path, f"missing column '{col}' (a {kind} log needs {', '.join(_required(kind, meta, path))})")
+    for h in header:
+        bad = _column_problem(h)
+        if bad:
+            _fail(path, bad)
     if kind == "leg" and not any(f"u_{a}" in header for a in (f"mLA_{meta['side']}", f"mLS_{meta['side']}")):
         _fail(path, f"missing column 'u_mLA_{meta['side']}' or 'u_mLS_{meta['side']}' (a leg log needs the "
                     "command of at least one motor of its side)")
-    rows = [r for r in csv.reader(lines[i + 1:]) if r and any(c.strip() for c in r)]
+    bad = _contradiction(kind, meta, header)
+    if bad:
+        _fail(path, bad)
+    if "name" in meta and not meta["name"]:
+        _fail(path, "metadata name is empty")
+    _metadata_number(path, meta, "cad_inertia", *CAD_INERTIA, "kg m^2")
+    _metadata_number(path, meta, "boom_radius", *BOOM_RADIUS, "m")
+    _metadata_number(path, meta, "release_s", 0.0, BOUNDS["time_s"], "s")
+    rows = [r for r in _csv_rows(path, lines[i + 1:]) if r and any(c.strip() for c in r)]
     if not rows:
         _fail(path, "has no data rows")
     for j, r in enumerate(rows):
@@ -223,6 +324,12 @@ def read_log(path) -> Experiment:
     if bad.any():
         j, c = np.argwhere(bad)[0]
         _fail(path, f"column '{header[c]}' has a non-finite value ({rows[j][c].strip()}) at row {j + 1}")
+    for c, h in enumerate(header):
+        bound = BOUNDS[next(k for k in BOUNDS if h.startswith(k))]
+        big = np.abs(data[:, c]) > bound
+        if big.any():
+            j = int(np.argmax(big))
+            _fail(path, f"column '{h}' has {rows[j][c].strip()} at row {j + 1}, outside +-{bound:g}")
     cols = {h: data[:, k] for k, h in enumerate(header)}
     t = cols["time_s"]
     dt = np.diff(t)
@@ -234,16 +341,19 @@ def read_log(path) -> Experiment:
             _fail(path, f"has {len(t)} samples; a {kind} log needs at least 20")
         if np.max(np.abs(dt - 1e-3)) > 1e-6:
             _fail(path, f"time_s must advance by 1 ms per row (found steps from {dt.min():g} to {dt.max():g} s)")
+    if "release_s" in meta and float(meta["release_s"]) > t[-1] - t[0]:
+        _fail(path, f"metadata release_s={meta['release_s']} is after the log's end ({t[-1] - t[0]:g} s after its start)")
     u = {h[2:]: v for h, v in cols.items() if h.startswith("u_")}
-    for a in u:
-        if a not in tb.ACTUATORS:
-            _fail(path, f"column 'u_{a}' names no actuator (expected u_ followed by one of {', '.join(tb.ACTUATORS)})")
     enc = {h[4:]: v for h, v in cols.items() if h.startswith("enc_")}
     name = meta.pop("name", path.stem)
     meta.pop("experiment")
     meta.pop("units")
     meta = {k: v for k, v in meta.items() if not k.startswith("bipedlab")}
-    return Experiment(name, kind, t, u, enc, cols.get("scale_N"), meta)
+    exp = Experiment(name, kind, t, u, enc, cols.get("scale_N"), meta, source=str(path))
+    why = preconditions.problem(exp)
+    if why:
+        _fail(path, why)
+    return exp
 
 
 def read_logs(directory) -> list[Experiment]:
@@ -255,8 +365,12 @@ def read_logs(directory) -> list[Experiment]:
     if not files:
         raise LogError(f"{directory}: no .csv logs found")
     out = [read_log(f) for f in files]
-    names = [e.name for e in out]
-    dup = {n for n in names if names.count(n) > 1}
-    if dup:
-        raise LogError(f"{directory}: two logs share the name {sorted(dup)[0]!r}")
+    first = {}
+    for e in out:
+        if e.name in first:
+            raise LogError(f"{e.source}: its name {e.name!r} is also that of {first[e.name]}")
+        first[e.name] = e.source
+    from bipedlab.robots.mabel.sysid import preconditions
+
+    preconditions.check(out)
     return out

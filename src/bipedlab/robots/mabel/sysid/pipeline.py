@@ -17,12 +17,16 @@ using what the earlier ones found:
    on the ``hopping`` log;
 7. validation: each identified model simulated against its logs (Figs. 15-16, 21-23).
 
-A step whose logs are missing keeps the published values and says so in ``notes``.
+A step whose logs are missing keeps the published values and says so in ``notes``. Every
+estimator's preconditions are checked before the first fit (:mod:`.preconditions`), and a fit
+that fails on logs that met them, or gives a value that cannot be (a non-positive K_T), raises
+:class:`~bipedlab.robots.mabel.sysid.logs.LogError` naming the files.
 :func:`compare` lines the estimates up against a truth: per parameter its true value, estimate
 and relative error, the largest relative error per group, and the targets of the issue.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 
 import numpy as np
@@ -30,8 +34,9 @@ import numpy as np
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.sysid import arx, balance, friction, hopping_fit, rigs, springs
 from bipedlab.robots.mabel.sysid import params as P
+from bipedlab.robots.mabel.sysid import preconditions
 from bipedlab.robots.mabel.sysid import transmission as tr
-from bipedlab.robots.mabel.sysid.logs import Experiment, motor_encoder
+from bipedlab.robots.mabel.sysid.logs import Experiment, LogError, motor_encoder
 
 #: Targets on synthetic data (largest relative error per group; bias in N m).
 TARGETS = {"motor_constant": 0.02, "rotor_inertia_scale": 0.02, "friction": 0.10, "spring_stiffness": 0.02,
@@ -65,9 +70,23 @@ def _combination(e: Experiment) -> int:
     return int(e.meta.get("combination", 0))
 
 
+@contextlib.contextmanager
+def _fitting(experiments, what: str):
+    """Turn a numerical failure of a fit into a LogError naming its files (one line)."""
+    try:
+        yield
+    except LogError:
+        raise
+    except (ValueError, ArithmeticError, np.linalg.LinAlgError) as e:
+        why = " ".join(str(e).split()) or e.__class__.__name__
+        files = ", ".join(preconditions.label(x) for x in experiments)
+        raise LogError(f"{files}: the {what} failed on these data ({why[:200]})") from None
+
+
 def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identification:
     """Identify MABEL's parameters from experiment logs (see the module docstring)."""
     say = progress or (lambda msg: None)
+    preconditions.check(experiments)
     kinds = _by_kind(experiments)
     pub = P.published()
     est = pub
@@ -80,7 +99,8 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
         rows = {}
         for e in kinds["bias"]:
             a = e.meta["actuator"]
-            r = arx.arx_bias(e.u[a], e.enc[motor_encoder(a)])
+            with _fitting([e], "ARX bias fit"):
+                r = arx.arx_bias(e.u[a], e.enc[motor_encoder(a)])
             bias_arx[P.actuator_index(a)] = r.bias
             rows[a] = dict(bias_nm=r.bias, a1=r.a1, rotor_J_exp=r.J_exp, rotor_mu_exp=r.mu_exp)
         details["bias_arx"] = rows
@@ -101,8 +121,13 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
             k = P.actuator_index(a)
             cad = np.array([float(e.meta.get("cad_inertia", P.combination_inertia(a)[_combination(e) - 1]))
                             for e in exps])
-            fo = [tr.fit_first_order(e.u[a] + bias_arx[k], e.enc[motor_encoder(a)]) for e in exps]
-            ka = tr.kt_alpha([f.J_exp for f in fo], P.rotor_inertia_manufacturer(a), cad)
+            with _fitting(exps, "transmission fit (eqs. 7, 12)"):
+                fo = [tr.fit_first_order(e.u[a] + bias_arx[k], e.enc[motor_encoder(a)]) for e in exps]
+                ka = tr.kt_alpha([f.J_exp for f in fo], P.rotor_inertia_manufacturer(a), cad)
+            if not (np.isfinite(ka.kt) and ka.kt > 0 and np.isfinite(ka.alpha) and ka.alpha > 0):
+                raise LogError(f"{', '.join(preconditions.label(e) for e in exps)}: K_T {ka.kt:.3g} and alpha "
+                               f"{ka.alpha:.3g} of {a} from these logs are not both positive (the rotor does not "
+                               "follow eq. 7: check the command's sign and the encoder)")
             kt[k], alpha[k] = ka.kt, ka.alpha
             for f, e in zip(fo, exps):
                 tf[k, _combination(e) - 1] = f.mu_exp / ka.kt
@@ -132,12 +157,14 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
                     continue
                 a = next(iter(e.u))
                 var = ("friction_mLA", "bias_mLA") if a.startswith("mLA") else ("friction_mLS", "bias_mLS")
-                f = friction.fit_leg(rig, e, var)
+                with _fitting([e], "leg friction fit (eqs. 19-20)"):
+                    f = friction.fit_leg(rig, e, var)
                 rig = f.rig
                 side_rows[e.name] = dict(variables=list(var), values=f.values.tolist(), rms_deg=f.rms_deg[e.name])
             mimo = [e for e in exps if len(e.u) == 2]
             if mimo:
-                f = friction.fit_leg(rig, mimo, ("bias_mLA", "bias_mLS"))
+                with _fitting(mimo, "leg bias fit (eq. 20)"):
+                    f = friction.fit_leg(rig, mimo, ("bias_mLA", "bias_mLS"))
                 rig = f.rig
                 side_rows["mimo"] = dict(variables=["bias_mLA", "bias_mLS"], values=f.values.tolist(),
                                          rms_deg=f.rms_deg)
@@ -157,7 +184,8 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
         k_b, pre = est.spring_k.copy(), est.spring_preload.copy()
         rows = {}
         for e in kinds["spring"]:
-            f = springs.fit_spring(cad, e)
+            with _fitting([e], "spring fit (eq. 24)"):
+                f = springs.fit_spring(cad, e)
             j = tb.SIDES.index(f.side)
             k_b[j], pre[j] = f.stiffness, f.preload
             rows[f.side] = dict(stiffness=f.stiffness, preload_nm=f.preload, stiffness_std=f.stiffness_std,
@@ -171,8 +199,9 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
     # 5. Section VI
     if "balance" in kinds:
         say("Section VI: static COM check")
-        check = balance.com_check(cad, kinds["balance"])
-        shift = balance.estimate_torso_com(cad, kinds["balance"])
+        with _fitting(kinds["balance"], "COM check"):
+            check = balance.com_check(cad, kinds["balance"])
+            shift = balance.estimate_torso_com(cad, kinds["balance"])
         details["com_check"] = dict(distance_mm={k: v.tolist() for k, v in check.distance_mm.items()},
                                     support=check.support, max_abs_mm=check.max_abs_mm,
                                     torso_com_shift_mm=(1e3 * shift).tolist())
@@ -187,14 +216,17 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
         ck, cd = est.cable_k.copy(), est.cable_d.copy()
         rows = {}
         for a in P.ACTUATORS:
-            f = hopping_fit.fit_cable(e, est, a)
+            with _fitting([e], f"cable fit of {a}"):
+                f = hopping_fit.fit_cable(e, est, a)
             k = P.actuator_index(a)
             ck[k], cd[k] = f.stiffness, f.damping
             rows[a] = dataclasses.asdict(f)
         details["cables"] = rows
         est = est.replace(cable_k=ck, cable_d=cd)
         say("Section VIII: hard stop and ground by replaying the hop on the 13-DoF model")
-        hf = hopping_fit.fit_hopping(e, est, prior=hopping_fit.hop_values(pub), max_nfev=hop_max_nfev, progress=say)
+        with _fitting([e], "hopping fit"):
+            hf = hopping_fit.fit_hopping(e, est, prior=hopping_fit.hop_values(pub), max_nfev=hop_max_nfev,
+                                         progress=say)
         est = hopping_fit.with_hop_values(est, hf.values)
         identified = {k: hf.identified(k) for k in hf.values}
         details["hopping"] = dict(values=hf.values, rel_std=hf.rel_std, prior=hf.prior, rms_deg=hf.rms_deg,
@@ -205,7 +237,8 @@ def identify(experiments, progress=None, hop_max_nfev: int = 8) -> Identificatio
 
     # 7. validation
     say("validation: identified models against their logs")
-    details["validation"] = validate(est, fits)
+    with _fitting(experiments, "validation"):
+        details["validation"] = validate(est, fits)
     return Identification(est, details, fits, identified, notes)
 
 

@@ -148,38 +148,43 @@ def clean(obj):
     return obj
 
 
-def _fmt(v, spec=".2%"):
-    return "-" if v is None else format(v, spec)
+def _fmt(v, spec=".2%", scale: float = 1.0):
+    """A number of the record formatted, or "-" where it is null (a value no fit gave)."""
+    return "-" if v is None else format(scale * v, spec)
 
 
 def summary(rec: dict) -> str:
-    """Human-readable summary of :func:`study`."""
+    """Human-readable summary of :func:`study`; a null value (an estimate no fit gave, a
+    non-finite number) prints as "-"."""
     lines = [f"MABEL system identification ({rec['mode']}"
              + (f", seed {rec['seed']}, noise {rec['noise_level']:g} counts, {rec['design']} design)"
                 if rec["mode"] == "synthetic" else f", {rec['logs']} logs from {rec['data']})")]
     if rec.get("max_rel_error"):
-        met = rec["targets_met"]
+        met = rec.get("targets_met") or {}
+        targets = rec.get("targets") or {}
+        identified = rec.get("max_rel_error_identified") or {}
         lines.append("  largest relative error per group (target; identified only):")
         for g, v in rec["max_rel_error"].items():
-            t = rec["targets"].get(g)
+            t = targets.get(g)
             flag = "" if t is None else f"  (target {t:.0%}: {'met' if met.get(g) else 'MISSED'})"
-            vi = rec["max_rel_error_identified"].get(g)
+            vi = identified.get(g)
             lines.append(f"    {g:<20} {_fmt(v)}" + (f"  [identified: {_fmt(vi)}]" if vi != v else "") + flag)
-        lines.append(f"  largest bias error: {1e3 * rec['max_abs_bias_error_nm']:.2f} mN m (eq. 20; Appendix A "
-                     f"{1e3 * rec['max_abs_bias_error_arx_nm']:.2f} mN m; target 5 mN m: "
+        lines.append(f"  largest bias error: {_fmt(rec.get('max_abs_bias_error_nm'), '.2f', 1e3)} mN m (eq. 20; "
+                     f"Appendix A {_fmt(rec.get('max_abs_bias_error_arx_nm'), '.2f', 1e3)} mN m; target 5 mN m: "
                      f"{'met' if met.get('bias') else 'MISSED'})")
     else:
         lines.append("  estimates:")
-        for p in rec["parameters"]:
-            lines.append(f"    {p['name']:<26} {p['estimate']:.5g} {p['unit']}")
+        for p in rec.get("parameters") or []:
+            lines.append(f"    {p['name']:<26} {_fmt(p.get('estimate'), '.5g')} {p['unit']}")
     if rec.get("validation_rms_deg") is not None:
         lines.append(f"  validation rms (simulated vs measured joint angles): {rec['validation_rms_deg']:.3f} deg max; "
                      f"cable stretch {_fmt(rec.get('validation_cable_stretch_rms_deg'), '.3f')} deg (motor side)")
     cc = rec.get("com_check")
     if cc:
-        lines.append(f"  COM check (Section VI): largest distance {cc['max_abs_mm']:.1f} mm over "
-                     f"{sum(len(v) for v in cc['distance_mm'].values())} postures; torso COM shift "
-                     + ", ".join(f"{v:.1f}" for v in cc["torso_com_shift_mm"]) + " mm")
+        postures = sum(len(v or []) for v in (cc.get("distance_mm") or {}).values())
+        lines.append(f"  COM check (Section VI): largest distance {_fmt(cc.get('max_abs_mm'), '.1f')} mm over "
+                     f"{postures} postures; torso COM shift "
+                     + ", ".join(_fmt(v, ".1f") for v in cc.get("torso_com_shift_mm") or []) + " mm")
     ident = rec.get("identifiability") or {}
     if ident:
         lines.append("  hopping fit, 1-sigma relative error (identified below 10 %):")
@@ -188,16 +193,17 @@ def summary(rec: dict) -> str:
                                         else f"{k} >1000% (not identified)"
                                         for k, v in ident.items()))
     ns = rec.get("noise_study")
-    if ns:
+    if ns and ns.get("rows"):
         lines.append("  noise study (largest relative error per group; bias in mN m):")
         groups = list(ns["rows"][0]["max_rel_error"])
         lines.append("    level  " + "  ".join(f"{g[:10]:>10}" for g in groups) + "   bias")
         for r in ns["rows"]:
-            lines.append(f"    {r['noise']:5g}  " + "  ".join(f"{_fmt(r['max_rel_error'][g], '.2%'):>10}" for g in groups)
-                         + f"  {1e3 * r['max_abs_bias_error_nm']:.2f}")
+            lines.append(f"    {r['noise']:5g}  " + "  ".join(f"{_fmt(r['max_rel_error'].get(g), '.2%'):>10}"
+                                                          for g in groups)
+                         + f"  {_fmt(r.get('max_abs_bias_error_nm'), '.2f', 1e3)}")
     for n in rec.get("notes", []):
         lines.append(f"  note: {n}")
     for f in rec.get("figures", []):
         lines.append(f"  figure: {f}")
-    lines.append(f"  wall time {rec['wall_time_s']:.0f} s")
+    lines.append(f"  wall time {_fmt(rec.get('wall_time_s'), '.0f')} s")
     return "\n".join(lines)
