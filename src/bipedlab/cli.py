@@ -332,8 +332,16 @@ def _leaf(sub, name: str, cmd: Command, help_text: str):
     for a in p._actions:  # every range is stated in its option's help
         if isinstance(a.type, Range) and a.help is not argparse.SUPPRESS and a.type.text not in (a.help or ""):
             a.help = f"{a.help or ''}; in {a.type.text}".lstrip("; ")
-    p.set_defaults(_command=cmd)
+    p.set_defaults(_command=cmd, _parser=p)
     return p
+
+
+def _check_values_given(p, args) -> None:
+    """argparse hands an option written ``--opt=--`` an empty list without calling its type:
+    refuse it like a missing value."""
+    for a in p._actions:
+        if a.option_strings and a.nargs not in (0, "*") and a.default != [] and getattr(args, a.dest, None) == []:
+            p.error(f"argument {'/'.join(a.option_strings)}: expected a value, got '--'")
 
 
 def build_parser(cmds=None) -> argparse.ArgumentParser:
@@ -400,6 +408,7 @@ def parse(argv=None, parser=None):
         return parser, None
     if cmd is None:
         parser.error(f"{args.verb}: choose a robot: {', '.join(args._robots)}")
+    _check_values_given(args._parser, args)
     if cmd.validate is not None:
         try:
             cmd.validate(args)

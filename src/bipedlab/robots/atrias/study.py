@@ -210,8 +210,9 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
             for i in survivors for k in [min(int(out["n_apex"][i]), ar.MAX_APEX)]]
     if tail:
         tb, ts = np.concatenate([a for a, _ in tail]), np.concatenate([b for _, b in tail])
-        rec["last10"] = dict(apex_height_error_mean_m=float(tb.mean() - gait.y_apex),
-                             speed_error_mean_mps=float(ts.mean() - gait.speed))
+        # a run too short for an apex past the start transient has no steady state: NaN (null in JSON)
+        rec["last10"] = dict(apex_height_error_mean_m=float(tb.mean() - gait.y_apex) if tb.size else float("nan"),
+                             speed_error_mean_mps=float(ts.mean() - gait.speed) if ts.size else float("nan"))
     if single:
         rec["status"] = ar.STATUS_NAMES[int(out["status"][0])]
     else:
@@ -236,6 +237,9 @@ def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
     from bipedlab.robots.atrias import plots as run_plots
 
     run_plots.write_all(out_dir, out, sr, cp, gait)
+    if "log" not in out:
+        print("[bipedlab] no time-series or GRF figure: --trials runs keep no per-sample log "
+              "(run without --trials for them)", file=sys.stderr, flush=True)
 
 
 def summary(rec: dict) -> str:

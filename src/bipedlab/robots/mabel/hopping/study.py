@@ -330,6 +330,8 @@ def study(hops: int = 100, torso_update: bool = True, poincare: bool = True, acc
 
         stretch = cable_stretch(run.x)
         rec["figures"] = hop_plots.write_figures(run, stretch, out)
+        if not any(str(f).endswith("hop_periods.png") for f in rec["figures"]):
+            say(f"no hop-period figure: it needs at least 3 touchdowns, the run had {len(run.touchdowns)}")
         path = f"{out}/hop_mabel.npz"
         np.savez(path, t=run.t, x=run.x, u=run.u, phase=run.phase, touchdowns=run.touchdowns,
                  cable_stretch=stretch, coordinates=np.array(mm.COORDS_13 + ("z_L", "z_R")))
