@@ -21,7 +21,9 @@ Estimators:
 * :func:`identify` - the whole pipeline on a list of logs; :func:`compare` - against a truth
   (:mod:`.pipeline`).
 
-Logs: :func:`read_logs`, :func:`write_logs`, :class:`LogError`.
+Logs: :func:`read_logs`, :func:`write_logs`, :class:`LogError`; what each estimator needs of
+its logs (rows, postures, excitation, rank), checked on reading and before the first fit:
+:mod:`.preconditions`.
 """
 from bipedlab.robots.mabel.sysid import (
     arx,
@@ -32,6 +34,7 @@ from bipedlab.robots.mabel.sysid import (
     logs,
     params,
     pipeline,
+    preconditions,
     rigs,
 )
 from bipedlab.robots.mabel.sysid import sensors, springs, transmission
@@ -58,8 +61,8 @@ from bipedlab.robots.mabel.sysid.springs import SpringFit, fit_spring
 from bipedlab.robots.mabel.sysid.transmission import FirstOrderFit, KtAlpha, fit_first_order, kt_alpha
 
 __all__ = [
-    "arx", "balance", "experiments", "friction", "hopping_fit", "logs", "params", "pipeline", "rigs", "sensors", "springs",
-    "transmission",
+    "arx", "balance", "experiments", "friction", "hopping_fit", "logs", "params", "pipeline", "preconditions", "rigs",
+    "sensors", "springs", "transmission",
     "ArxBias", "arx_bias", "ComCheck", "com_check", "estimate_torso_com", "Design", "balance_experiments",
     "bias_experiment", "generate", "hopping_experiment", "leg_experiments", "quick_design", "spring_experiment",
     "transmission_experiments", "LegFit", "fit_leg", "CableFit", "HopFit", "fit_cable", "fit_hopping", "TARGETS",

@@ -95,6 +95,13 @@ def block_average(u, theta, block: int, h: float = PERIOD):
     return y, u[: n * block].reshape(n, block).mean(axis=1)
 
 
+def bias_regressors(u, theta, lags: int = 2, block: int = 10, h: float = PERIOD) -> np.ndarray:
+    """The regressor matrix [y_k-1, u_k .. u_k-lags+1, 1] that :func:`arx_bias` fits on the
+    blocks of a command u (N,) and encoder angles theta (N,) (for checking its rank first)."""
+    y, ub = block_average(u, theta, block, h)
+    return _regressors(y, ub, lags, 0)[0]
+
+
 def arx_bias(u, theta=None, lags: int = 2, block: int = 10, instrumental: int = 3, h: float = PERIOD,
              y=None) -> ArxBias:
     """Amplifier bias from an unbiased command u (N,) and the rotor's encoder angles theta

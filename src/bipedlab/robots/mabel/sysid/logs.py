@@ -342,7 +342,8 @@ def read_log(path) -> Experiment:
         if np.max(np.abs(dt - 1e-3)) > 1e-6:
             _fail(path, f"time_s must advance by 1 ms per row (found steps from {dt.min():g} to {dt.max():g} s)")
     if "release_s" in meta and float(meta["release_s"]) > t[-1] - t[0]:
-        _fail(path, f"metadata release_s={meta['release_s']} is after the log's end ({t[-1] - t[0]:g} s after its start)")
+        _fail(path, f"metadata release_s={meta['release_s']} is after the log's end "
+                    f"({t[-1] - t[0]:g} s after its start)")
     u = {h[2:]: v for h, v in cols.items() if h.startswith("u_")}
     enc = {h[4:]: v for h, v in cols.items() if h.startswith("enc_")}
     name = meta.pop("name", path.stem)

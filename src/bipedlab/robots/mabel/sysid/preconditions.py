@@ -82,9 +82,7 @@ def _bias(e: Experiment) -> str | None:
     bad = _command_and_motor(e, a)
     if bad:
         return bad
-    y, u = arx.block_average(e.u[a], e.enc[motor_encoder(a)], ARX_BLOCK, PERIOD)
-    Phi, _ = arx._regressors(y, u, ARX_LAGS, 0)
-    if not _full_rank(Phi):
+    if not _full_rank(arx.bias_regressors(e.u[a], e.enc[motor_encoder(a)], ARX_LAGS, ARX_BLOCK, PERIOD)):
         return ("the ARX regressor (speed, command, lagged command, constant) is rank-deficient: the command "
                 "must vary from block to block and the rotor respond")
     return None
