@@ -417,9 +417,8 @@ def parse(argv=None, parser=None):
     return parser, args
 
 
-def _stage_outputs(parser, args) -> outputs.Staging:
+def _stage_outputs(parser, args, staging: outputs.Staging) -> None:
     """Check every declared output target and point its option at the staged path."""
-    staging = outputs.Staging()
     for dest, kind, option in getattr(args, "_outputs", None) or []:
         value = getattr(args, dest, None)
         if value is None:
@@ -430,7 +429,6 @@ def _stage_outputs(parser, args) -> outputs.Staging:
             staging.discard()
             parser.error(f"{args._command.name}: {e}")
         setattr(args, dest, staged)
-    return staging
 
 
 def _fail(line: str, code: int) -> int:
@@ -457,8 +455,9 @@ def _main(argv) -> int:
         parser.print_help()
         return 0
     cmd = args._command
-    staging = _stage_outputs(parser, args)
+    staging = outputs.Staging()
     with interrupt.guard(cleanup=staging.discard):
+        _stage_outputs(parser, args, staging)
         try:
             if cmd.before_jax is not None:
                 cmd.before_jax(args)
