@@ -73,7 +73,10 @@ def load(path):
 
 def _tol(path: str, rtol: float, atol: float, special) -> tuple[float, float]:
     for prefix, r, a in special:
-        if path == prefix or path.startswith(prefix + ".") or path.startswith(prefix + "["):
+        if prefix.startswith("*"):  # "*name": any path containing name (e.g. every rel_error)
+            if prefix[1:] in path:
+                return r, a
+        elif path == prefix or path.startswith(prefix + ".") or path.startswith(prefix + "["):
             return r, a
     return rtol, atol
 

@@ -16,6 +16,18 @@ class Case(NamedTuple):
 
 
 EIG = (("eigenvalue_moduli", 1e-7, 1e-9), ("jacobian", 1e-9, 1e-10))
+#: MABEL's I/O-linearising walk: the controller's decoupling matrix, its inverse and the
+#: hybrid-invariance corrections are now assembled by the core's control.hzd pieces, whose
+#: operation order differs from the former robot-specific code (1-ulp torque differences);
+#: quantised encoders and three impacts amplify them to 1.2e-9 in the run totals and 3.7e-9 in
+#: the third step (measured), so rel 1e-8 holds the walk to rounding growth and no more.
+IOLIN = 1e-8
+#: sysid least-squares iterates: ``rel_error`` = estimate / true - 1 loses three digits to
+#: cancellation (|rel_error| ~ 1e-3), so it is held in absolute terms: abs 1e-6 is the estimate
+#: itself to 1e-6 relative, the case's tolerance for every estimate (measured change up to
+#: 1.4e-8, from the rotor-cable rig's 1e-16 RK4 reassociation amplified by the fit);
+#: ``rel_std`` comes from the fit's Jacobian at the iterate, rel 1e-5 (measured 1.4e-6).
+SYSID = (("*rel_error", 0.0, 1e-6), ("*rel_std", 1e-5, 1e-9))
 
 QUANTITIES = {
     "gait_five_link_0.8": Case("five_link_gait"),
@@ -29,7 +41,7 @@ QUANTITIES = {
     "walk_five_link_iolin": Case("five_link_walk", ("iolin",), slow=True),
     "walk_five_link_pd": Case("five_link_walk", ("pd",), slow=True),
     "walk_mabel_pdff": Case("mabel_walk", ("pdff",)),
-    "walk_mabel_iolin": Case("mabel_walk", ("iolin",), slow=True),
+    "walk_mabel_iolin": Case("mabel_walk", ("iolin",), slow=True, rtol=IOLIN),
     "walk_seven_link": Case("seven_link_walk"),
     "run_atrias": Case("atrias_run"),
     "run_slip": Case("slip_run"),
@@ -42,14 +54,15 @@ CLI = {
     "cli_walk_five_link": Case("cli", ("walk", "five-link", "--steps", "3"), slow=True),
     "cli_walk_five_link_pd": Case("cli", ("walk", "five-link", "--steps", "3", "--controller", "pd"), slow=True),
     "cli_walk_mabel": Case("cli", ("walk", "mabel", "--steps", "3"), slow=True),
-    "cli_walk_mabel_iolin": Case("cli", ("walk", "mabel", "--steps", "3", "--controller", "iolin"), slow=True),
+    "cli_walk_mabel_iolin": Case("cli", ("walk", "mabel", "--steps", "3", "--controller", "iolin"), slow=True,
+                                 rtol=IOLIN),
     "cli_walk_seven_link": Case("cli", ("walk", "seven-link", "--steps", "2"), slow=True),
     "cli_experiment_seven_link_free_swing": Case("cli", ("experiment", "seven-link", "free-swing")),
     "cli_run_atrias": Case("cli", ("run", "atrias", "--seconds", "1")),
     "cli_run_atrias_trials": Case("cli", ("run", "atrias", "--trials", "2", "--seconds", "1"), slow=True),
     "cli_hop_mabel": Case("cli", ("hop", "mabel", "--hops", "2", "--no-poincare")),
     "cli_identify_mabel_quick": Case("cli", ("identify", "mabel", "--synthetic", "--quick"), slow=True,
-                                     rtol=1e-6, atol=1e-9),
+                                     rtol=1e-6, atol=1e-9, special=SYSID),
     "cli_optimize_five_link": Case("cli", ("optimize", "five-link"), slow=True, rtol=1e-6, atol=1e-9),
 }
 

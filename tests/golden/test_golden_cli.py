@@ -35,3 +35,13 @@ def test_differences_detects_a_perturbation():
     assert compare.differences({"a": [1.0, 2.0 * (1 + 1e-8)], "b": "x", "c": True, "d": 0.0}, ref)
     assert compare.differences({"a": [1.0, 2.0], "b": "y", "c": True, "d": 0.0}, ref)
     assert compare.differences({"a": [1.0, 2.0], "b": "x", "c": 1, "d": 0.0}, ref)
+
+
+def test_wildcard_tolerance_applies_to_every_matching_key():
+    special = (("*rel_error", 0.0, 1e-8),)
+    ref = {"parameters": [{"rel_error": 1e-3, "estimate": 1.0}]}
+    near = {"parameters": [{"rel_error": 1e-3 + 5e-9, "estimate": 1.0}]}
+    far = {"parameters": [{"rel_error": 1e-3 + 5e-8, "estimate": 1.0}]}
+    assert compare.differences(near, ref, 1e-9, 1e-12, special) == []
+    assert compare.differences(far, ref, 1e-9, 1e-12, special)
+    assert compare.differences({"parameters": [{"rel_error": 1e-3, "estimate": 1.0 + 1e-8}]}, ref, 1e-9, 1e-12, special)
