@@ -302,7 +302,7 @@ def _argv_property(n: int):
     return check
 
 
-test_generated_command_lines = _argv_property(200)
+test_generated_command_lines = _argv_property(120)
 test_generated_command_lines_slow = pytest.mark.slow(_argv_property(2000))
 
 
@@ -340,6 +340,7 @@ test_generated_command_lines_slow = pytest.mark.slow(_argv_property(2000))
     (["walk", "compass-gait", "--out", ""], "--out: expected a non-empty value"),
     (["optimize", "five-link", "--save", " "], "--save: expected a non-empty value"),
     (["walk", "mabel", "--steps", "3\n4"], "\\n"),
+    (["bench", "\x1e\u2028"], "\\x1e\\u2028"),
 ])
 def test_bad_values_and_combinations(argv, needle):
     line = _refused(argv)
@@ -594,7 +595,8 @@ def _cache_ok(cache: pathlib.Path):
 
 
 @pytest.mark.parametrize("sig,code,line", [(signal.SIGINT, 130, "bipedlab: interrupted"),
-                                           (signal.SIGTERM, 143, "bipedlab: terminated")])
+                                           pytest.param(signal.SIGTERM, 143, "bipedlab: terminated",
+                                                        marks=pytest.mark.slow)])
 def test_a_signal_during_compilation_ends_with_one_line_and_no_output(tmp_path, sig, code, line):
     cache, out = tmp_path / "cache", tmp_path / "res"
     env = dict(os.environ, BIPEDLAB_CACHE_DIR=str(cache))
@@ -632,7 +634,8 @@ sys.exit(cli.main(sys.argv[1:]))
 '''
 
 
-@pytest.mark.parametrize("sig,code,line", [(signal.SIGINT, 130, "bipedlab: interrupted"),
+@pytest.mark.parametrize("sig,code,line", [pytest.param(signal.SIGINT, 130, "bipedlab: interrupted",
+                                                        marks=pytest.mark.slow),
                                            (signal.SIGTERM, 143, "bipedlab: terminated")])
 def test_a_signal_during_the_run_leaves_no_partial_output(tmp_path, sig, code, line):
     script = tmp_path / "runner.py"

@@ -98,9 +98,13 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(2)
 
 
+_LINE_BREAKS = {c: repr(c)[1:-1] for c in "\n\r\v\f\x1c\x1d\x1e\x85\u2028\u2029"}
+
+
 def one_line(text: str) -> str:
-    """``text`` with line breaks shown as escapes, so an error stays one line whatever the input."""
-    return str(text).replace("\r", "\\r").replace("\n", "\\n")
+    """``text`` with every character that breaks a line (for str.splitlines too) shown as an
+    escape, so an error stays one line whatever the input."""
+    return "".join(_LINE_BREAKS.get(c, c) for c in str(text))
 
 
 def positive_int(text: str) -> int:
