@@ -42,7 +42,9 @@ from typing import Callable, Optional
 from bipedlab import interrupt, outputs
 
 ENTRY_POINT_GROUP = "bipedlab.robots"
-VERB_ORDER = ("bench", "optimize", "walk", "experiment", "run", "hop", "identify")
+CORE_CLI_MODULES = ("bipedlab.report.cli",)
+"""The core's own command modules (same ``COMMANDS`` protocol as the robots'): ``reproduce``."""
+VERB_ORDER = ("reproduce", "bench", "optimize", "walk", "experiment", "run", "hop", "identify")
 """Listing order of the verbs (others follow alphabetically)."""
 
 
@@ -291,11 +293,11 @@ def _entry_point_commands() -> list:
 
 
 def commands() -> list[Command]:
-    """Every registered Command: the robot packages' (in package order), then the entry
-    points'. Raises ValueError on two commands for one (verb, robot) or a verb both with and
+    """Every registered Command: the core's (CORE_CLI_MODULES), the robot packages' (in package
+    order), then the entry points'. Raises ValueError on two commands for one (verb, robot) or a verb both with and
     without a robot."""
     found = []
-    for name in robot_cli_modules():
+    for name in CORE_CLI_MODULES + tuple(robot_cli_modules()):
         found += _module_commands(importlib.import_module(name))
     found += _entry_point_commands()
     seen: dict = {}

@@ -1,0 +1,96 @@
+"""The core's own command: ``bipedlab reproduce [PAPER ...] [--quick] [--out DIR] [--json]``.
+
+The papers are those the robot packages register (:mod:`bipedlab.report.registry`); every
+experiment runs in this one process (one compile cache), its result stored under a content
+hash, and the report is written to DIR (default ``./bipedlab-report``): index.html,
+report.json and the figures.
+"""
+from __future__ import annotations
+
+import argparse
+import time
+
+from bipedlab.cli import Command, UsageError, add_out, text
+
+DEFAULT_OUT = "bipedlab-report"
+
+
+def _arguments(p) -> None:
+    p.add_argument("papers", nargs="*", type=text, metavar="PAPER",
+                   help="papers to reproduce (default: all); `bipedlab reproduce --list` names them")
+    p.add_argument("--quick", action="store_true",
+                   help="a reduced version of every experiment (fewer steps, trials, hops; a reduced sysid design), "
+                        "each reduction stated in the report")
+    p.add_argument("--rerun", action="store_true", help="run every experiment again instead of reusing stored results")
+    p.add_argument("--list", action="store_true", help="list the papers and their experiments, run nothing")
+    p.add_argument("--only", type=text, action="append", default=None, metavar="PAPER/EXPERIMENT",
+                   help=argparse.SUPPRESS)
+    add_out(p, "index.html, report.json and the figures (default ./bipedlab-report)")
+    p.set_defaults(out=DEFAULT_OUT)
+
+
+def _known():
+    from bipedlab.report import registry
+
+    return registry.papers()
+
+
+def _validate(args) -> None:
+    known = _known()
+    bad = [k for k in args.papers if k not in known]
+    if bad:
+        raise UsageError(f"unknown paper {bad[0]!r}; choose from {', '.join(known)}")
+    chosen = [k for k in known if not args.papers or k in args.papers]
+    for item in args.only or []:
+        paper, sep, name = item.partition("/")
+        if not sep or paper not in chosen or name not in [e.name for e in known[paper].experiments]:
+            raise UsageError(f"--only {item!r}: expected PAPER/EXPERIMENT among the chosen papers' experiments")
+        if known[paper].experiment(name).args(args.quick) is None:
+            raise UsageError(f"--only {item!r}: not run {'with' if args.quick else 'without'} --quick")
+
+
+def listing(known) -> str:
+    lines = []
+    for k, p in known.items():
+        lines.append(f"{k}: {len(p.experiments)} experiments")
+        for e in p.experiments:
+            q = "skipped in --quick" if e.quick_args is None else f"--quick: {e.reduction or 'as in the full run'}"
+            lines.append(f"  {e.name:<18} {e.command}  ({q})")
+    return "\n".join(lines)
+
+
+def _run(args, progress):
+    from bipedlab.report import build, runner
+
+    known = _known()
+    if args.list:
+        return dict(papers={k: [e.name for e in p.experiments] for k, p in known.items()}), lambda r: listing(known)
+    papers = [p for k, p in known.items() if not args.papers or k in args.papers]
+    t0, c0 = time.perf_counter(), time.process_time()
+    only = set(args.only) if args.only else None
+    results = runner.run_all(papers, args.quick, progress, use_cache=not args.rerun, only=only)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    progress("writing the report")
+    report = build.build(papers, results, args.quick, args.out, wall, cpu)
+    report["index_html"] = f"{args.out}/index.html"
+    report["report_json"] = f"{args.out}/report.json"
+    return report, summary
+
+
+def summary(report: dict) -> str:
+    lines = []
+    for k, p in report["papers"].items():
+        c = p["counts"]
+        run = [e for e in p["experiments"] if not e["skipped"]]
+        lines.append(f"{k:<15} {c['rows']:>3} rows: {c['agrees']:>3} agree, {c['departs']:>3} depart, "
+                     f"{c['not_judged']:>3} not judged  ({len(run)} experiments, "
+                     f"{sum(e['wall_s'] for e in run):.0f} s of study time)")
+    lines.append(f"report: {report['index_html']} (and report.json); {report['wall_s']:.0f} s wall, "
+                 f"{report['cpu_s']:.0f} s CPU{', --quick' if report['quick'] else ''}")
+    return "\n".join(lines)
+
+
+COMMANDS = [
+    Command("reproduce", None, "reproduce the four papers in one run: tables beside the papers' numbers, figures, "
+            "animations, one HTML report", _arguments, _run, validate=_validate),
+]

@@ -1,0 +1,142 @@
+"""The report page: one self-contained HTML file (no network, no script except inside the
+animation players, which are separate pages shown in iframes). Figures are PNG files next to it."""
+from __future__ import annotations
+
+import math
+from html import escape
+
+CSS = """
+body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:0 auto;max-width:1180px;
+padding:1.2em 1.6em;color:#1d1d1f;line-height:1.45}
+h1{font-size:1.7em;margin-bottom:.2em}h2{margin-top:2em;border-bottom:2px solid #ddd;padding-bottom:.2em}
+h3{margin-top:1.4em}
+table{border-collapse:collapse;width:100%;font-size:.9em;margin:.6em 0}
+th,td{border:1px solid #d0d0d0;padding:.3em .5em;vertical-align:top;text-align:left}
+th{background:#f3f3f3}td.num{text-align:right;white-space:nowrap;font-variant-numeric:tabular-nums}
+tr.agrees td.verdict{background:#e3f4e1;color:#1b5e20;font-weight:600}
+tr.departs td.verdict{background:#fde7e4;color:#8e1c0e;font-weight:600}
+tr.notjudged td.verdict{background:#f1f1f1;color:#555}
+.src{color:#666;font-size:.85em}.why{font-size:.88em}
+figure{display:inline-block;margin:.5em 1em .8em 0;vertical-align:top;max-width:540px}
+figure img{max-width:100%;border:1px solid #e0e0e0}figcaption{font-size:.85em;color:#333}
+iframe.animation{width:680px;max-width:100%;height:430px;border:1px solid #ccc;background:#fff}
+dl.meta{display:grid;grid-template-columns:max-content auto;gap:.1em 1em;font-size:.9em}dl.meta dt{font-weight:600}
+.counts{font-weight:600}.note{font-size:.88em;color:#444}
+nav a{margin-right:1em}
+"""
+
+
+def _val(v, unit: str = "") -> str:
+    if v is None:
+        return "—"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            return "—"
+        a = abs(v)
+        s = f"{v:.3g}" if (a >= 1e4 or (0 < a < 1e-3)) else f"{v:.4g}"
+    else:
+        s = str(v)
+    return f"{s} {unit}".strip() if unit and not isinstance(v, str) else s
+
+
+def _verdict(ok) -> tuple[str, str]:
+    if ok is True:
+        return "agrees", "agrees"
+    if ok is False:
+        return "departs", "departs"
+    return "notjudged", "not judged"
+
+
+def _table(rows: list) -> str:
+    out = ['<table class="rows"><thead><tr><th>quantity</th><th>paper (source)</th><th>bipedlab</th>'
+           '<th>agrees / departs</th><th>tolerance</th><th>why</th></tr></thead><tbody>']
+    for r in rows:
+        cls, word = _verdict(r["agrees"])
+        out.append(f'<tr class="{cls}" id="row-{escape(r["id"])}"><td>{escape(r["quantity"])}</td>'
+                   f'<td>{escape(_val(r["paper"], r["unit"]))}<br><span class="src">{escape(r["source"])}</span></td>'
+                   f'<td class="num">{escape(_val(r["bipedlab"], r["unit"]))}</td><td class="verdict">{word}</td>'
+                   f'<td class="src">{escape(r["tolerance"])}</td><td class="why">{escape(r["why"] or "")}</td></tr>')
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def _experiments(exps: list) -> str:
+    out = ['<table class="experiments"><thead><tr><th>experiment</th><th>command</th><th>--quick reduction</th>'
+           '<th>compile (s)</th><th>run (s)</th><th>wall (s)</th><th>note</th></tr></thead><tbody>']
+    for e in exps:
+        if e["skipped"]:
+            note = e["skipped"]
+            c = w = r = "—"
+        else:
+            c, w = f'{e["compile_s"]:.1f}', f'{e["wall_s"]:.1f}'
+            r = f'{max(e["wall_s"] - e["compile_s"], 0.0):.1f}'
+            note = "stored result (content hash unchanged)" if e["cached"] else ""
+        out.append(f'<tr><td>{escape(e["name"])}</td><td><code>{escape(e["command"])}</code></td>'
+                   f'<td>{escape(e["reduction"] or "")}</td><td class="num">{c}</td><td class="num">{r}</td>'
+                   f'<td class="num">{w}</td><td class="note">{escape(note)}</td></tr>')
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
+def _figures(figs: list) -> str:
+    out = []
+    for f in figs:
+        if f["file"] is None:
+            out.append(f'<p class="note">{escape(f["caption"])}: {escape(f["missing"] or "not produced")}.</p>')
+            continue
+        out.append(f'<figure><img src="{escape(f["file"])}" alt="{escape(f["caption"])}" loading="eager">'
+                   f'<figcaption>{escape(f["caption"])}</figcaption></figure>')
+    return "\n".join(out)
+
+
+def _animations(anims: list) -> str:
+    out = []
+    for a in anims:
+        if a["file"] is None:
+            out.append(f'<p class="note">{escape(a["caption"])}: {escape(a["missing"] or "not produced")}.</p>')
+            continue
+        out.append(f'<figure class="animation"><iframe class="animation" src="{escape(a["file"])}" '
+                   f'title="{escape(a["caption"])}"></iframe><figcaption>{escape(a["caption"])} '
+                   f'(<a href="{escape(a["file"])}">open</a>)</figcaption></figure>')
+    return "\n".join(out)
+
+
+def page(report: dict) -> str:
+    papers = report["papers"]
+    dev = report["device"]
+    total = {k: sum(p["counts"][k] for p in papers.values()) for k in ("rows", "agrees", "departs", "not_judged")}
+    head = (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>bipedlab reproduction report</title>'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1"><style>{CSS}</style></head><body>')
+    parts = [head, "<h1>bipedlab: the four papers, reproduced</h1>",
+             f'<p>Each section sets the paper\'s numbers beside the simulation\'s, with the tolerance for agreement and '
+             f'why a row departs. {"A <strong>--quick</strong> run: every experiment reduced as stated in its table; " if report["quick"] else ""}'
+             f'<span class="counts">{total["rows"]} rows: {total["agrees"]} agree, {total["departs"]} depart, '
+             f'{total["not_judged"]} not judged.</span></p>',
+             "<nav>" + "".join(f'<a href="#{escape(k)}">{escape(p["title"])}</a>' for k, p in papers.items())
+             + '<a href="#metadata">run metadata</a></nav>']
+    for key, p in papers.items():
+        c = p["counts"]
+        parts += [f'<section class="paper" id="{escape(key)}"><h2>{escape(p["title"])}</h2>',
+                  f'<p class="src">{escape(p["citation"])} — <code>bipedlab reproduce {escape(key)}</code></p>',
+                  f'<p class="counts">{c["rows"]} rows: {c["agrees"]} agree, {c["departs"]} depart, '
+                  f'{c["not_judged"]} not judged.</p>', _table(p["rows"])]
+        if p["figures"]:
+            parts += ["<h3>Figures</h3>", _figures(p["figures"])]
+        if p["animations"]:
+            parts += ["<h3>Gait animation</h3>", _animations(p["animations"])]
+        for n in p["notes"]:
+            parts.append(f'<p class="note">{escape(n)}</p>')
+        parts += ["<h3>Experiments</h3>", _experiments(p["experiments"]), "</section>"]
+    meta = [("bipedlab", report["version"]), ("commit", report["commit"] or "not a git checkout"),
+            ("JAX", report["jax"]), ("Python", report["python"]), ("device", dev["description"]),
+            ("dtype", report["dtype"]), ("--quick", "yes" if report["quick"] else "no"),
+            ("wall time", f'{report["wall_s"]:.1f} s'), ("CPU time (this process)", f'{report["cpu_s"]:.1f} s'),
+            ("created", report["created"])]
+    parts += ['<section id="metadata"><h2>Run metadata</h2><dl class="meta">']
+    parts += [f"<dt>{escape(k)}</dt><dd>{escape(str(v))}</dd>" for k, v in meta]
+    parts += ["</dl><p class=\"note\">Compile time is the tracing, lowering and XLA compilation JAX reports while an "
+              "experiment runs (persistent-cache hits make it small); run time is wall time minus compile time. "
+              "report.json holds every row and every experiment's full record.</p></section></body></html>"]
+    return "\n".join(parts)

@@ -1,0 +1,235 @@
+"""Running a report's experiments: one progress display over the whole run, compile and run
+time per experiment, and a result cache keyed by a content hash.
+
+The cache key of an experiment hashes the package's source and data files, the experiment's
+paper, name and arguments, and the JAX version: re-running with unchanged code and inputs reuses
+the stored record and figures (``<cache>/reproduce/<key>/``), so rebuilding a report takes
+seconds. The cache folder is ``$BIPEDLAB_CACHE_DIR`` or ``~/.cache/bipedlab``, as for the
+compiled programs.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+import os
+import shutil
+import time
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Callable, Optional
+
+import bipedlab
+from bipedlab.outputs import dumps_json
+from bipedlab.report.spec import Experiment, Paper
+
+COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
+                  "/jax/core/compile/backend_compile_duration")
+"""JAX monitoring events whose durations count as compile time (tracing, lowering, XLA)."""
+KEPT_SUFFIXES = (".png", ".svg", ".html", ".gif")
+"""Files of an experiment's output folder that are kept in the cache and copied to the report."""
+
+
+def cache_root() -> Path:
+    base = os.environ.get("BIPEDLAB_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab")
+    return Path(base) / "reproduce"
+
+
+_SOURCE_HASH: Optional[str] = None
+
+
+def source_hash() -> str:
+    """sha256 of every .py and .json file of the installed package (paths and contents)."""
+    global _SOURCE_HASH
+    if _SOURCE_HASH is None:
+        root = Path(bipedlab.__file__).parent
+        h = hashlib.sha256()
+        for path in sorted(root.rglob("*")):
+            if path.suffix in (".py", ".json") and "__pycache__" not in path.parts and path.is_file():
+                h.update(str(path.relative_to(root)).encode())
+                h.update(b"\0")
+                h.update(path.read_bytes())
+                h.update(b"\0")
+        _SOURCE_HASH = h.hexdigest()
+    return _SOURCE_HASH
+
+
+def cache_key(paper: str, experiment: str, args: dict) -> str:
+    import jax
+
+    text = json.dumps(dict(source=source_hash(), paper=paper, experiment=experiment, args=args,
+                           jax=jax.__version__, x64=bool(jax.config.jax_enable_x64)), sort_keys=True)
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+class _CompileClock:
+    """Sums JAX's compile-event durations while active (one listener for the process)."""
+
+    total = 0.0
+    _registered = False
+
+    @classmethod
+    def install(cls) -> None:
+        if cls._registered:
+            return
+        import jax
+
+        def listen(name, duration, **_):
+            if name in COMPILE_EVENTS:
+                cls.total += float(duration)
+
+        jax.monitoring.register_event_duration_secs_listener(listen)
+        cls._registered = True
+
+
+@dataclass
+class Result:
+    paper: str
+    name: str
+    command: str
+    args: Optional[dict]
+    record: Optional[dict]
+    wall_s: float = 0.0
+    compile_s: float = 0.0
+    cpu_s: float = 0.0
+    cached: bool = False
+    skipped: Optional[str] = None
+    reduction: str = ""
+    files: list = field(default_factory=list)   # kept output files (absolute paths in the cache)
+    key: str = ""
+
+    def summary(self) -> dict:
+        return dict(name=self.name, command=self.command, args=self.args, wall_s=self.wall_s,
+                    compile_s=self.compile_s, cpu_s=self.cpu_s, cached=self.cached, skipped=self.skipped,
+                    reduction=self.reduction or None, cache_key=self.key or None)
+
+
+def _fmt_s(s: float) -> str:
+    s = max(0.0, float(s))
+    return f"{s:.0f} s" if s < 120 else f"{s / 60:.1f} min"
+
+
+class Progress:
+    """One display over the whole run on stderr: experiment k of n, elapsed, expected left."""
+
+    def __init__(self, plan: list, say: Callable[[str], None]):
+        self.plan = plan            # [(paper, Experiment, expected_s)]
+        self.say = say
+        self.t0 = time.perf_counter()
+        self.done_expected = 0.0
+        self.total_expected = sum(e for _, _, e in plan)
+
+    def start(self, k: int, label: str, expected: float, cached: bool) -> None:
+        el = time.perf_counter() - self.t0
+        left = max(self.total_expected - self.done_expected, 0.0)
+        what = "cached result" if cached else f"expected {_fmt_s(expected)}"
+        self.say(f"[{k}/{len(self.plan)}] {label} ({what}); elapsed {_fmt_s(el)}, about {_fmt_s(left)} left")
+
+    def finish(self, expected: float) -> None:
+        self.done_expected += expected
+
+    def inner(self, label: str) -> Callable[[str], None]:
+        def say(msg: str) -> None:
+            self.say(f"  {label}: {msg} (elapsed {_fmt_s(time.perf_counter() - self.t0)})")
+        return say
+
+
+def _kept_files(folder: Path) -> list:
+    if not folder.is_dir():
+        return []
+    return sorted(str(p) for p in folder.rglob("*") if p.is_file() and p.suffix.lower() in KEPT_SUFFIXES)
+
+
+def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callable[[str], None],
+                   use_cache: bool = True) -> Result:
+    """Run one experiment (or take its stored result): the record, times and kept files."""
+    args = exp.args(quick)
+    res = Result(paper.key, exp.name, exp.command, args, None, reduction=exp.reduction if quick else "")
+    if args is None:
+        res.skipped = exp.skip_reason
+        return res
+    key = cache_key(paper.key, exp.name, args)
+    res.key = key
+    root = cache_root()
+    where = root / key
+    if use_cache and (where / "record.json").is_file():
+        try:
+            stored = json.loads((where / "record.json").read_text())
+            res.record = stored["record"]
+            res.wall_s, res.compile_s, res.cpu_s = stored["wall_s"], stored["compile_s"], stored["cpu_s"]
+            res.cached = True
+            res.files = _kept_files(where / "out")
+            return res
+        except (OSError, ValueError, KeyError):
+            pass  # a damaged entry is recomputed
+    _CompileClock.install()
+    tmp = root / f".{key}.tmp-{os.getpid()}"
+    shutil.rmtree(tmp, ignore_errors=True)
+    (tmp / "out").mkdir(parents=True)
+    c0, t0, p0 = _CompileClock.total, time.perf_counter(), time.process_time()
+    try:
+        record = exp.run(args, str(tmp / "out"), progress)
+        res.wall_s = time.perf_counter() - t0
+        res.cpu_s = time.process_time() - p0
+        res.compile_s = _CompileClock.total - c0
+        res.record = json.loads(dumps_json(record))
+        for p in (tmp / "out").rglob("*"):  # keep the figures, drop the bulky data files
+            if p.is_file() and p.suffix.lower() not in KEPT_SUFFIXES:
+                p.unlink()
+        (tmp / "record.json").write_text(dumps_json(dict(record=res.record, wall_s=res.wall_s, compile_s=res.compile_s,
+                                                         cpu_s=res.cpu_s, args=args, paper=paper.key,
+                                                         experiment=exp.name)))
+        shutil.rmtree(where, ignore_errors=True)
+        os.replace(tmp, where)
+    finally:
+        shutil.rmtree(tmp, ignore_errors=True)
+    res.files = _kept_files(where / "out")
+    return res
+
+
+def plan(papers: list, quick: bool) -> list:
+    """[(paper, experiment, expected seconds)] in run order."""
+    out = []
+    for p in papers:
+        for e in p.experiments:
+            if e.args(quick) is not None:
+                out.append((p, e, e.quick_expected_s if quick else e.expected_s))
+    return out
+
+
+def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bool = True,
+            only: Optional[set] = None) -> dict:
+    """Run every experiment of ``papers``: {paper key: [Result, ...]} (skipped ones included).
+    ``only``: names "paper/experiment" to run (the others are reported as not run)."""
+    steps = [(p, e, x) for p, e, x in plan(papers, quick) if only is None or f"{p.key}/{e.name}" in only]
+    cached = {id(e): (root_has(p, e, quick) if use_cache else False) for p, e, _ in steps}
+    steps_expected = [(p, e, 1.0 if cached[id(e)] else x) for p, e, x in steps]
+    prog = Progress(steps_expected, say)
+    if not all(cached.values()):
+        say(f"reproducing {len(papers)} paper(s), {len(steps)} experiment(s)"
+            f"{' (--quick)' if quick else ''}: expected duration about {_fmt_s(prog.total_expected)} "
+            "from an empty compile cache on a two-core CPU")
+    results: dict = {p.key: [] for p in papers}
+    k = 0
+    for p in papers:
+        for e in p.experiments:
+            selected = any(e is s for _, s, _ in steps)
+            if not selected:
+                r = Result(p.key, e.name, e.command, e.args(quick), None, reduction=e.reduction if quick else "")
+                r.skipped = e.skip_reason if e.args(quick) is None else "not selected in this run"
+                results[p.key].append(r)
+                continue
+            k += 1
+            expected = next(x for _, s, x in steps_expected if s is e)
+            label = f"{p.key}: {e.name}"
+            prog.start(k, label, expected, cached[id(e)])
+            r = run_experiment(p, e, quick, prog.inner(label), use_cache=use_cache)
+            prog.finish(expected)
+            say(f"  {label}: done in {_fmt_s(r.wall_s)}{' (stored result)' if r.cached else ''}"
+                f"{'' if r.cached else f', compile {_fmt_s(r.compile_s)}'}")
+            results[p.key].append(r)
+    return results
+
+
+def root_has(paper: Paper, exp: Experiment, quick: bool) -> bool:
+    args = exp.args(quick)
+    return args is not None and (cache_root() / cache_key(paper.key, exp.name, args) / "record.json").is_file()

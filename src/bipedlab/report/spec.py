@@ -1,0 +1,104 @@
+"""What a paper's reproduction is made of: experiments, figures, an animation and the rows that
+compare the paper's numbers with the simulation's.
+
+A robot package that reproduces a paper holds a ``reproduce`` module whose ``PAPERS`` lists
+:class:`Paper` objects (found by :func:`bipedlab.report.registry.papers`). The paper's numbers
+are data: a JSON file shipped beside the package (:mod:`bipedlab.report.values`); the code only
+says how each row's simulated value is read from the experiments' records (``measure``).
+"""
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Callable, Optional
+
+
+@dataclass(frozen=True)
+class Experiment:
+    """One run of an existing study.
+
+    name: unique within its paper (also the folder of its figures in the report).
+    command: the equivalent command line (shown in the report).
+    run(args, out, progress) -> record: calls the study in-process; ``args`` is ``full_args`` or
+        ``quick_args``; ``out`` a folder for figures (or None); progress a one-argument callable.
+    full_args / quick_args: JSON-able arguments; they enter the result cache's key.
+        ``quick_args=None``: not run with ``--quick``; ``skip_reason`` says why.
+    reduction: what ``--quick`` reduces, in words (stated in the report).
+    expected_s / quick_expected_s: expected wall seconds from an empty compile cache on a
+        two-core CPU (for the progress display and the announced duration).
+    """
+
+    name: str
+    command: str
+    run: Callable[[dict, Optional[str], Callable[[str], None]], dict]
+    full_args: dict
+    quick_args: Optional[dict]
+    reduction: str = ""
+    expected_s: float = 60.0
+    quick_expected_s: float = 30.0
+    skip_reason: str = "not run in --quick"
+
+    def args(self, quick: bool) -> Optional[dict]:
+        return self.quick_args if quick else self.full_args
+
+
+@dataclass(frozen=True)
+class Figure:
+    """A file an experiment writes into its ``out`` folder, shown with a caption (which names
+    the paper's figure it corresponds to). ``kind``: "image" (PNG/SVG) or "animation" (HTML
+    page with an inline player, or an animated SVG)."""
+
+    experiment: str
+    file: str
+    caption: str
+    kind: str = "image"
+
+
+@dataclass(frozen=True)
+class Skip:
+    """A row value that was not measured, with the reason (e.g. the experiment is not run in
+    ``--quick``); its row neither agrees nor departs."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
+class Paper:
+    """One paper's reproduction.
+
+    key: the command-line name (``bipedlab reproduce KEY``).
+    values: path of the paper-values JSON file.
+    measure(records, quick) -> {row id: value | Skip}: the simulated value of each row from
+        the experiments' records (``records[name]`` is None for an experiment not run).
+    figures / animations: :class:`Figure` s shown in the paper's section.
+    notes: sentences shown under the section's figures.
+    order: position of the paper in the report (then by key).
+    """
+
+    key: str
+    title: str
+    values: str
+    experiments: tuple
+    measure: Callable[[dict, bool], dict]
+    figures: tuple = ()
+    animations: tuple = ()
+    notes: tuple = field(default_factory=tuple)
+    order: int = 100
+
+    def experiment(self, name: str) -> Experiment:
+        for e in self.experiments:
+            if e.name == name:
+                return e
+        raise KeyError(name)
+
+
+def dig(record: Any, *path, default=None):
+    """record[path[0]][path[1]]... or ``default`` where a step is missing or None."""
+    x = record
+    for p in path:
+        if x is None:
+            return default
+        try:
+            x = x[p]
+        except (KeyError, IndexError, TypeError):
+            return default
+    return default if x is None else x

@@ -1,0 +1,81 @@
+"""The seven-link paper (Braun, Mitchell & Goldfarb) in ``bipedlab reproduce``: the walking
+gait (Sec. IV, Figs. 8-9), the free-swing experiments (Fig. 6) and the low-gain PD experiment
+(Fig. 7), through :mod:`bipedlab.robots.seven_link.study`. Paper values:
+``data/paper_seven_link.json``."""
+from __future__ import annotations
+
+from pathlib import Path
+
+from bipedlab.report import Experiment, Figure, Paper, Skip, dig
+
+DATA = Path(__file__).parent / "data" / "paper_seven_link.json"
+WALK_STEPS, QUICK_WALK_STEPS = 30, 10
+
+
+def _walk(args, out, progress):
+    from bipedlab.robots.seven_link import study
+
+    return study.walk(args["steps"], args["params"], out=out, progress=progress)
+
+
+def _free_swing(args, out, progress):
+    from bipedlab.robots.seven_link import study
+
+    return study.free_swing(out=out, duration=args["duration_s"], progress=progress)
+
+
+def _low_gain_pd(args, out, progress):
+    from bipedlab.robots.seven_link import study
+
+    return study.low_gain_pd(out=out, duration=args["duration_s"], progress=progress)
+
+
+EXPERIMENTS = (
+    Experiment("walk", f"bipedlab walk seven-link --steps {WALK_STEPS}", _walk,
+               dict(steps=WALK_STEPS, params="tuned"), dict(steps=QUICK_WALK_STEPS, params="tuned"),
+               reduction=f"{QUICK_WALK_STEPS} steps instead of {WALK_STEPS} (gait figures over steps 7-10 only)",
+               expected_s=240, quick_expected_s=170),
+    Experiment("walk-table-ii", f"bipedlab walk seven-link --steps {WALK_STEPS} --params paper", _walk,
+               dict(steps=WALK_STEPS, params="paper"), None, expected_s=200,
+               skip_reason="not run in --quick (a second walk, compiled again)"),
+    Experiment("free-swing", "bipedlab experiment seven-link free-swing", _free_swing, dict(duration_s=6.0),
+               dict(duration_s=6.0), reduction="as in the full run", expected_s=25, quick_expected_s=25),
+    Experiment("low-gain-pd", "bipedlab experiment seven-link low-gain-pd", _low_gain_pd, dict(duration_s=8.0),
+               dict(duration_s=8.0), reduction="as in the full run", expected_s=25, quick_expected_s=25),
+)
+
+
+def _ratio(a, b):
+    return None if a is None or not b else a / b
+
+
+def measure(records: dict, quick: bool) -> dict:
+    w, p = records.get("walk"), records.get("walk-table-ii")
+    fs, pd = records.get("free-swing"), records.get("low-gain-pd")
+    out = {}
+    for key in ("speed_mps", "step_length_m", "step_frequency_hz", "cmt"):
+        out[f"walk_{key}"] = dig(w, key) if w else Skip("not run")
+    out["walk_table_ii_speed_mps"] = dig(p, "speed_mps") if p else Skip("not run in --quick" if quick else "not run")
+    hip, knee = dig(fs, "joints", "hip", default={}), dig(fs, "joints", "knee", default={})
+    out["free_swing_hip_half_cycles"] = dig(hip, "21:1 (Table I)", "half_cycles")
+    out["free_swing_knee_half_cycles"] = dig(knee, "12:1 (Table I)", "half_cycles")
+    out["free_swing_hip_geared_ratio"] = _ratio(dig(hip, "105:1", "amplitude_after_1s_deg"),
+                                                dig(hip, "21:1 (Table I)", "amplitude_after_1s_deg"))
+    out["free_swing_knee_geared_ratio"] = _ratio(dig(knee, "60:1", "amplitude_after_1s_deg"),
+                                                 dig(knee, "12:1 (Table I)", "amplitude_after_1s_deg"))
+    for j in ("hip", "knee", "ankle"):
+        out[f"pd_{j}_amplitude_ratio"] = dig(pd, "joints", j, "amplitude_ratio")
+    return out
+
+
+PAPERS = [Paper(
+    key="seven-link", title="Actuated dynamic walking of a seven-link biped", values=str(DATA),
+    experiments=EXPERIMENTS, measure=measure, order=40,
+    figures=(Figure("walk", "angles_torques.png", "Joint angles and torques while walking (cf. paper Fig. 8)"),
+             Figure("walk", "stick_figures.png", "Stick-figure sequence of the gait (cf. paper Fig. 9)"),
+             Figure("free-swing", "free_swing.png",
+                    "Free swing of hip and knee, Table I gearing against 105:1 / 60:1 (cf. paper Fig. 6)"),
+             Figure("low-gain-pd", "pd_experiment.png", "Low-gain PD with a modulated equilibrium (cf. paper Fig. 7)")),
+    animations=(Figure("walk", "walk.html", "The seven-link biped walking (logged trajectory, stick figure)",
+                       kind="animation"),),
+)]
