@@ -63,7 +63,8 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
             reason = "the study did not report it (see the experiment's record)"
         ok = values.agrees(v, r["tolerance"], r["paper"])
         if reason is None and ok is None:
-            reason = "not comparable under this tolerance"
+            reason = (r["tolerance"]["why"] if r["tolerance"]["kind"] == "report"
+                      else "not comparable under this tolerance")
         if ok is True:
             why = f"agrees {values.tolerance_text(r['tolerance'], r.get('unit', ''))}: {r['tolerance']['why']}"
         elif ok is False:

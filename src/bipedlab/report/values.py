@@ -17,6 +17,8 @@ kinds, for a simulated value v:
 - ``at_least`` / ``at_most``: v >= value / v <= value (claims such as "stable", "over 90 hops")
 - ``range``: value[0] <= v <= value[1]
 - ``equals``: v == value (a yes/no claim)
+- ``report``: shown beside the paper, not judged (the paper gives the quantity only in a
+  figure, or no number to compare with); ``why`` says so
 
 Every row states why its tolerance is what it is (``tolerance.why``). ``departs_why`` is the
 sentence shown when the simulation departs.
@@ -27,7 +29,7 @@ import json
 import math
 from pathlib import Path
 
-KINDS = ("rel", "abs", "at_least", "at_most", "range", "equals")
+KINDS = ("rel", "abs", "at_least", "at_most", "range", "equals", "report")
 REQUIRED = ("id", "quantity", "paper", "source", "tolerance")
 
 
@@ -50,6 +52,8 @@ def check_tolerance(tol, where: str) -> None:
         ok = isinstance(v, list) and len(v) == 2 and all(_number(a) for a in v) and v[0] <= v[1]
     elif kind == "equals":
         ok = isinstance(v, (bool, int, float, str))
+    elif kind == "report":
+        ok = v is None
     else:
         ok = _number(v) and (v >= 0 or kind in ("at_least", "at_most"))
     if not ok:
@@ -101,7 +105,9 @@ def agrees(value, tolerance: dict, paper=None):
     value is missing (not measured) or not a number where a number is needed."""
     if value is None:
         return None
-    kind, t = tolerance["kind"], tolerance["value"]
+    kind, t = tolerance["kind"], tolerance.get("value")
+    if kind == "report":
+        return None
     if kind == "equals":
         return bool(value == t)
     if isinstance(value, bool) or not _number(value):
@@ -124,8 +130,10 @@ def _g(v) -> str:
 
 def tolerance_text(tolerance: dict, unit: str = "") -> str:
     """The tolerance in words, e.g. 'within 5 %', 'at least 90', 'in [0.5, 1]'."""
-    kind, t = tolerance["kind"], tolerance["value"]
+    kind, t = tolerance["kind"], tolerance.get("value")
     u = f" {unit}" if unit else ""
+    if kind == "report":
+        return "reported, not judged"
     if kind == "rel":
         return f"within {_g(100 * t)} %"
     if kind == "abs":

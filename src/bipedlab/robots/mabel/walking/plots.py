@@ -1,9 +1,8 @@
 """Figures for MABEL's compliant-HZD walking studies, after the paper's Figs. 5-9, 12, 16, 17
 and 20. Figures go through :mod:`bipedlab.viz.figures`.
 
-No stick-figure frames yet: MABEL's walking model has no drawing-point routine (a
-``segments(m, q)`` from :func:`bipedlab.robots.mabel.dynamics.toe_positions` and the joint
-positions would feed :mod:`bipedlab.viz.animation` as the five-link one does)."""
+:func:`walk_animation` draws the logged walk as a stick figure (torso, thighs, shins from the
+model's hip, head, knee and toe points) through :mod:`bipedlab.viz.animation`."""
 from __future__ import annotations
 
 import numpy as np
@@ -144,6 +143,38 @@ def walk_figures(out, log: dict, r: dict) -> list[str]:
         ax.set_xlabel("time (s)")
     figures.save(fig, out / "walk_spring_torso.png", paths)
 
+    paths += walk_animation(out / "walk.html", log, r.get("step_lengths_m") or [])
     np.savez(out / "walk_log.npz", **{k: np.asarray(v) for k, v in log.items()})
     paths.append(str(out / "walk_log.npz"))
     return paths
+
+
+#: drawing points of the stick figure and the segments between them (torso, stance leg, swing leg)
+DRAW_POINTS = ("hip", "head", "knee_L", "toe_L", "knee_R", "toe_R")
+DRAW_SEGMENTS = ((0, 1), (0, 2), (2, 3), (0, 4), (4, 5))
+
+
+def walk_animation(path, log: dict, step_lengths, seconds: float = 6.0, fps: float = 40.0) -> list[str]:
+    """The first ``seconds`` of a logged walk (1 kHz samples of the stance state z) as an offline
+    HTML animation; each step's stance toe is placed at the sum of the earlier step lengths."""
+    import jax
+    import jax.numpy as jnp
+
+    from bipedlab.mechanics import coupled as cp
+    from bipedlab.viz import animation
+
+    m = wk.walking_model()
+    z = np.asarray(log["z"])
+    t = np.arange(len(z)) * 1e-3
+    keep = np.nonzero(t <= seconds)[0][:: max(1, int(round(1.0 / (fps * 1e-3))))]
+    if keep.size < 2:
+        return []
+    pts = jax.jit(jax.vmap(lambda zz: jnp.stack([cp.point_position(m.body, wk.embed(m, zz)[0], n)
+                                                 for n in DRAW_POINTS])))(jnp.asarray(z[keep]))
+    pts = np.asarray(pts)
+    offsets = np.concatenate([[0.0], np.cumsum(np.asarray(step_lengths, float))])
+    step = np.clip(np.asarray(log["step"])[keep].astype(int), 0, len(offsets) - 1)
+    pts[:, :, 0] += offsets[step][:, None]
+    frames = np.stack([np.stack([pts[:, a], pts[:, b]], axis=1) for a, b in DRAW_SEGMENTS], axis=1)
+    return animation.write(path, frames, t[keep], ground=0.0, colors=["#444444", "#1f77b4", "#1f77b4", "#d62728", "#d62728"],
+                           widths=[5.0, 2.5, 2.5, 2.5, 2.5], follow=True, title="MABEL walking")

@@ -1,0 +1,163 @@
+"""The running paper (Wu & Geyer) in ``bipedlab reproduce``: flat ground (Sec. IV-A, Fig. 7),
+rough terrain under both energy controllers and with a 1 % slope (Sec. IV-B, Fig. 8), sensor
+noise, delay and model errors (Sec. IV-C), through :mod:`bipedlab.robots.atrias.study` (the
+rough cases batched over random terrains). Paper values: ``data/paper_running.json``."""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bipedlab.report import Experiment, Figure, Paper, Skip, dig
+
+DATA = Path(__file__).parent / "data" / "paper_running.json"
+TRIALS, QUICK_TRIALS = 32, 4
+ERR_TRIALS = 16
+DISTANCE, QUICK_DISTANCE = 60.0, 30.0
+ANIMATION_S = 3.0
+
+
+def _settings(args):
+    from bipedlab.robots.atrias import study
+
+    keys = ("terrain", "step_height", "distance", "noise", "delay_ms", "energy", "trials", "seed", "rough_grade_percent")
+    # "figures": write the apex figure of a batched run too
+    kw = {k: args[k] for k in keys if k in args}
+    kw["model_error"] = tuple((k, float(v)) for k, v in sorted(args.get("model_error", {}).items()))
+    return study.Settings(**kw)
+
+
+def _run(args, out, progress):
+    from bipedlab.robots.atrias import study
+
+    st = _settings(args)
+    single = st.trials is None
+    rec = study.study(st, out_dir=out if (single or args.get("figures")) else None, progress=None)
+    if single and out:
+        rec["animation"] = animate(Path(out) / "run_atrias.npz", Path(out) / "running.html")
+    return rec
+
+
+def animate(npz, path, seconds: float = ANIMATION_S, fps: float = 40.0) -> str:
+    """Stick figure (trunk through its centre of mass, the two legs hip to foot) of the first
+    ``seconds`` of a logged run, over the terrain, as an offline HTML animation."""
+    from bipedlab.robots.atrias import robot as at
+    from bipedlab.viz import animation
+
+    d = np.load(npz)
+    t, q = d["log_t"], d["log_q"]
+    keep = np.nonzero(t <= seconds)[0][:: max(1, int(round(1.0 / (fps * float(t[1] - t[0])))))]
+    p = at.AtriasParams()
+    frames = []
+    for k in keep:
+        h = np.asarray(at.hip(p, q[k]))
+        com = q[k, :2]
+        up = (com - h) / max(float(np.linalg.norm(com - h)), 1e-9)
+        f1, f2 = np.asarray(at.foot(p, q[k], 0)), np.asarray(at.foot(p, q[k], 1))
+        frames.append([[h, h + 0.6 * up], [h, f1], [h, f2]])
+    ground = None
+    if "log_ground" in d.files:
+        x = np.asarray([fr[0][0][0] for fr in frames])
+        ground = np.stack([np.linspace(x.min() - 1.0, x.max() + 1.0, 2), np.zeros(2)], axis=1)
+    return animation.write(path, np.asarray(frames), t[keep] - t[keep][0], ground=ground,
+                           colors=["#444444", "#1f77b4", "#d62728"], widths=[4.0, 2.5, 2.5], follow=True,
+                           title="ATRIAS-like biped running")[0]
+
+
+def _rough(**kw):
+    base = dict(terrain="rough", step_height=0.25, distance=DISTANCE, trials=TRIALS, seed=0, energy="regulation")
+    base.update(kw)
+    return base
+
+
+def _quick(args, **kw):
+    q = dict(args, distance=QUICK_DISTANCE, trials=QUICK_TRIALS)
+    q.update(kw)
+    return q
+
+
+_R = f"{QUICK_TRIALS} terrains of {QUICK_DISTANCE:g} m instead of {TRIALS} of {DISTANCE:g} m"
+_E = f"{QUICK_TRIALS} terrains of {QUICK_DISTANCE:g} m instead of {ERR_TRIALS} of {DISTANCE:g} m"
+_SKIP = "not run in --quick (one more compiled batch; the noise, delay and mass cases stand for Sec. IV-C)"
+
+FLAT = dict(terrain="flat", distance=DISTANCE, seed=0, energy="regulation")
+ROUGH_REG = _rough(figures=True)
+ROUGH_CONS = _rough(energy="conservation")
+SLOPE = _rough(rough_grade_percent=1.0, figures=True)
+NOISE = _rough(energy="conservation", noise=True)
+DELAY = _rough(energy="conservation", delay_ms=10.0)
+
+
+def _err(name, rel):
+    return _rough(energy="conservation", trials=ERR_TRIALS, model_error={name: rel})
+
+
+EXPERIMENTS = (
+    Experiment("flat", "bipedlab run atrias --distance 60", _run, FLAT, dict(FLAT, distance=20.0),
+               reduction="20 m instead of 60 m", expected_s=70, quick_expected_s=45),
+    Experiment("rough", f"bipedlab run atrias --terrain rough --trials {TRIALS}", _run, ROUGH_REG, _quick(ROUGH_REG),
+               reduction=_R, expected_s=150, quick_expected_s=60),
+    Experiment("rough-conservation", f"bipedlab run atrias --terrain rough --energy conservation --trials {TRIALS}", _run,
+               ROUGH_CONS, None, expected_s=150, skip_reason=_SKIP),
+    Experiment("slope", f"bipedlab run atrias --terrain rough --slope 1 --trials {TRIALS}", _run, SLOPE, None,
+               expected_s=150, skip_reason=_SKIP),
+    Experiment("noise", f"bipedlab run atrias --terrain rough --energy conservation --noise --trials {TRIALS}", _run,
+               NOISE, _quick(NOISE), reduction=_R, expected_s=150, quick_expected_s=60),
+    Experiment("delay", f"bipedlab run atrias --terrain rough --energy conservation --delay-ms 10 --trials {TRIALS}",
+               _run, DELAY, None, expected_s=150, skip_reason=_SKIP),
+) + tuple(
+    Experiment(f"{name}{rel:+.0%}".replace("%", "pct"),
+               f"bipedlab run atrias --terrain rough --energy conservation --model-error {name}={rel:g} "
+               f"--trials {ERR_TRIALS}", _run, _err(name, rel),
+               _quick(_err(name, rel)) if (name, rel) == ("mass", 0.2) else None, reduction=_E,
+               expected_s=120, quick_expected_s=60, skip_reason=_SKIP)
+    for name, rel in (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
+                      ("inertia", 0.5), ("friction", 0.5)))
+
+
+def _stats(rec, prefix: str) -> dict:
+    if rec is None:
+        return {}
+    return {f"{prefix}_apex_sd_m": dig(rec, "apex_height_sd_m"), f"{prefix}_speed_sd_mps": dig(rec, "speed_sd_mps"),
+            f"{prefix}_apex_error_m": dig(rec, "apex_height_error_mean_m"),
+            f"{prefix}_speed_error_mps": dig(rec, "speed_error_mean_mps"),
+            f"{prefix}_success": dig(rec, "success_rate", default=None if dig(rec, "fell") is None
+                                     else float(not rec["fell"]))}
+
+
+def measure(records: dict, quick: bool) -> dict:
+    out = {}
+    flat = records.get("flat")
+    if flat is not None:
+        h, v = dig(flat, "last10", "apex_height_error_mean_m"), dig(flat, "last10", "speed_error_mean_mps")
+        out["flat_apex_error_m"] = None if h is None else abs(h)  # the paper states the errors' sizes
+        out["flat_speed_error_mps"] = None if v is None else abs(v)
+        out["flat_success"] = float(not flat["fell"])
+        out["flat_slip_apex_error_m"] = dig(flat, "slip_model", "apex_height_error_mean_m")
+    for name, prefix in (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"), ("noise", "noise"),
+                         ("delay", "delay")):
+        out.update(_stats(records.get(name), prefix))
+    rough = records.get("rough")
+    if rough is not None:
+        out["rough_slip_apex_sd_m"] = dig(rough, "slip_model", "apex_height_sd_m")
+        out["rough_slip_speed_sd_mps"] = dig(rough, "slip_model", "speed_sd_mps")
+    for e in EXPERIMENTS:
+        if e.name.startswith(("mass", "stiffness", "inertia", "friction")):
+            out.update(_stats(records.get(e.name), e.name))
+    return {k: v for k, v in out.items()}
+
+
+PAPERS = [Paper(
+    key="running", title="Spring-mass running embedded in an articulated biped (ATRIAS-like)", values=str(DATA),
+    experiments=EXPERIMENTS, measure=measure, order=30,
+    figures=(Figure("flat", "gait_time_series.png",
+                    "Flat ground: apex heights, speeds, landing angle, trunk pitch, angular momentum (cf. paper Fig. 7)"),
+             Figure("flat", "grf_first_stance.png", "Ground reaction forces of a stance (cf. paper Fig. 5)"),
+             Figure("rough", "apex.png", "Rough terrain (±25 cm steps), energy regulation: bounce heights and apex "
+                    "speeds of the robot and of the pure spring-mass model (cf. paper Fig. 8, top row)"),
+             Figure("slope", "apex.png", "Rough terrain on a 1 % slope, energy regulation (cf. paper Fig. 8, bottom row)"),),
+    animations=(Figure("flat", "running.html", "The ATRIAS-like biped running on flat ground (first 3 s of the log)",
+                       kind="animation"),),
+    notes=("The rough-terrain rows pool the apexes of every terrain draw that did not fall (random steps every 3 m "
+           "within ±25 cm); the paper's numbers are from one run each.",),
+)]

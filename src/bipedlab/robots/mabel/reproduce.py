@@ -1,0 +1,232 @@
+"""MABEL's two papers in ``bipedlab reproduce``.
+
+- ``identification`` (Park, Sreenath, Hurst & Grizzle): the system identification end to end on
+  a synthetic robot (:mod:`bipedlab.robots.mabel.sysid.study`) and the hopping experiment with and
+  without the event-based torso update (:mod:`bipedlab.robots.mabel.hopping.study`).
+- ``hzd`` (Sreenath, Park, Poulakakis & Grizzle): the gait designs and their Poincaré maps
+  (:mod:`bipedlab.robots.mabel.walking.study`) and Exps. 1-5 with Table I
+  (:mod:`bipedlab.robots.mabel.walking.experiments`).
+
+Paper values: ``data/paper_identification.json`` and ``data/paper_hzd.json``.
+"""
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from bipedlab.report import Experiment, Figure, Paper, Skip, dig
+
+DATA = Path(__file__).parent / "data"
+HOPS, QUICK_HOPS = 100, 20
+QUICK_STEPS = 20
+NOT_QUICK = "not run in --quick"
+
+
+# ----------------------------------------------------------------------------- identification
+def _hop(args, out, progress):
+    from bipedlab.robots.mabel.hopping import study
+
+    return study.study(args["hops"], torso_update=args["torso_update"], poincare=args["poincare"],
+                       out=out if args["torso_update"] else None, progress=progress)
+
+
+def _identify(args, out, progress):
+    from bipedlab.robots.mabel.sysid import study
+
+    return study.study(seed=args["seed"], noise=args["noise"], quick=args["quick"], out=out, progress=progress)
+
+
+IDENTIFICATION_EXPERIMENTS = (
+    Experiment("identify", "bipedlab identify mabel --synthetic", _identify, dict(seed=0, noise=1.0, quick=False),
+               dict(seed=0, noise=1.0, quick=True),
+               reduction="reduced experiment design (shorter chirps, fewer postures and hops; the sysid study's quick design)",
+               expected_s=900, quick_expected_s=150),
+    Experiment("hop", f"bipedlab hop mabel --hops {HOPS}", _hop, dict(hops=HOPS, torso_update=True, poincare=True),
+               dict(hops=QUICK_HOPS, torso_update=True, poincare=False),
+               reduction=f"{QUICK_HOPS} hops instead of {HOPS}; no Poincaré analysis (it compiles for minutes)",
+               expected_s=600, quick_expected_s=60),
+    Experiment("hop-no-update", f"bipedlab hop mabel --hops {HOPS} --no-torso-update --no-poincare", _hop,
+               dict(hops=HOPS, torso_update=False, poincare=False), dict(hops=QUICK_HOPS, torso_update=False, poincare=False),
+               reduction=f"{QUICK_HOPS} hops instead of {HOPS}", expected_s=120, quick_expected_s=30),
+)
+
+GROUP_ROWS = ("motor_constant", "rotor_inertia_scale", "friction", "spring_stiffness", "cable_stretch")
+
+
+def measure_identification(records: dict, quick: bool) -> dict:
+    ident, hop, free = records.get("identify"), records.get("hop"), records.get("hop-no-update")
+    out = {}
+    for g in GROUP_ROWS:
+        out[f"sysid_{g}"] = dig(ident, "max_rel_error", g) if ident else Skip("not run")
+    out["sysid_bias_nm"] = dig(ident, "max_abs_bias_error_nm") if ident else Skip("not run")
+    out["sysid_validation_rms_deg"] = dig(ident, "validation_rms_deg") if ident else Skip("not run")
+    if hop is not None:
+        n, fell = dig(hop, "hops_completed"), dig(hop, "fell")
+        if quick:
+            out["hops_with_update"] = Skip(f"--quick simulates {QUICK_HOPS} hops ({n} completed"
+                                           f"{', then fell' if fell else ' without a fall'}), fewer than the paper's 92")
+        else:
+            out["hops_with_update"] = n
+        out["hop_period_s"] = dig(hop, "mean_hop_period_s")
+        pm = dig(hop, "poincare")
+        out["poincare_with_update"] = (Skip(NOT_QUICK + " (the hop-to-hop map compiles for minutes)") if quick
+                                       else dig(pm, "with_torso_update", "max_abs_eigenvalue"))
+        out["poincare_without_update"] = (Skip(NOT_QUICK + " (the hop-to-hop map compiles for minutes)") if quick
+                                          else dig(pm, "without_torso_update", "max_abs_eigenvalue"))
+    if free is not None:
+        out["hops_without_update"] = dig(free, "hops_completed") if dig(free, "fell") else Skip(
+            f"did not fall within the {dig(free, 'hops_requested')} hops simulated")
+    return out
+
+
+# ----------------------------------------------------------------------------- hzd
+def _designs(args, out, progress):
+    """The nominal (torque) and efficient (c_mt) gaits: optimised again, or read from the gait
+    files the package ships (written by ``optimize mabel --save``)."""
+    from bipedlab.robots.mabel.walking import study as wm
+
+    rec = {}
+    for name, cost in (("nominal", "torque"), ("efficient", "cmt")):
+        if args["source"] == "optimize":
+            progress(f"designing the {name} gait ({cost} cost) and its Poincaré maps")
+            r = wm.optimize(0.8, cost, out=f"{out}/{name}" if out else None, poincare_check=True, progress=progress)
+            rec[name] = dict(speed_mps=r["speed_mps"], step_length_m=r["step_length_m"], cmt=r["cmt"],
+                             negative_work_fraction_spring=r["negative_work_fraction_spring"],
+                             eig_hzd=r.get("max_abs_eigenvalue"), eig_pdff=r.get("max_abs_eigenvalue_pdff"),
+                             converged=r["converged"], source="optimize mabel")
+        else:
+            _, _, g = wm.load_gait(name)
+            d, pc = g["design"], g.get("poincare") or {}
+            rec[name] = dict(speed_mps=d["speed"], step_length_m=d["step_length"], cmt=d["cmt"],
+                             negative_work_fraction_spring=d["negative_work_fraction_spring"],
+                             eig_hzd=dig(pc, "hzd", "max_abs_eigenvalue"), eig_pdff=dig(pc, "pdff", "max_abs_eigenvalue"),
+                             source=f"shipped gait file mabel_{name}.json")
+            if out:
+                from bipedlab.robots.mabel.walking import plots as wp
+                from bipedlab.robots.mabel.walking import stance as wk
+
+                rec[name]["figures"] = wp.gait_figures(f"{out}/{name}", wk.walking_model(), wm._design_from_record(g))
+    return rec
+
+
+def _wx(name):
+    def run(args, out, progress):
+        from bipedlab.robots.mabel.walking import experiments as wx
+
+        return wx.run(name, steps=args["steps"], out=out, progress=progress)
+    return run
+
+
+def _walk_exp(name, command, full_steps, quick_steps, expected, quick_expected, note=""):
+    red = NOT_QUICK if quick_steps is None else f"{quick_steps} steps per walk instead of {full_steps}{note}"
+    return Experiment(name, command, _wx(name), dict(steps=full_steps),
+                      None if quick_steps is None else dict(steps=quick_steps), reduction=red,
+                      expected_s=expected, quick_expected_s=quick_expected,
+                      skip_reason=f"{NOT_QUICK} (several more walks, each compiled for its controller)")
+
+
+HZD_EXPERIMENTS = (
+    Experiment("design", "bipedlab optimize mabel --speed 0.8 [--cost cmt]", _designs, dict(source="optimize"),
+               dict(source="shipped"), reduction="reads the shipped gait files (designed by optimize mabel, with their "
+               "stored Poincaré eigenvalues) instead of optimising and linearising again", expected_s=900,
+               quick_expected_s=2),
+    _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, QUICK_STEPS, 240, 150),
+    _walk_exp("push", "bipedlab experiment mabel push", 30, None, 300, 0),
+    _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, None, 200, 0),
+    _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, None, 400, 0),
+    _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40, None, 500, 0),
+    _walk_exp("fast", "bipedlab experiment mabel fast", 100, None, 500, 0),
+)
+
+ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
+
+
+def _eta_key(eta: float) -> str:
+    return f"{eta:g}".replace(".", "_")
+
+
+def measure_hzd(records: dict, quick: bool) -> dict:
+    out = {}
+    des = records.get("design") or {}
+    for g in ("nominal", "efficient"):
+        d = des.get(g)
+        for k in ("speed_mps", "step_length_m", "cmt", "negative_work_fraction_spring", "eig_hzd", "eig_pdff"):
+            out[f"{g}_{k}"] = dig(d, k) if d is not None else Skip("not run")
+    out["nominal_torso_travel_deg"] = Skip("the gait design does not report the torso's range yet")
+    nom = records.get("nominal")
+    skip = Skip(NOT_QUICK) if quick else Skip("not run")
+    out["exp1_speed_mps"] = dig(nom, "speed_mps") if nom else skip
+    push = records.get("push")
+    if push:
+        runs = {(r["controller"], r["force_n"]): r for r in push["runs"]}
+        f, b = runs.get(("pdff", 78.0)), runs.get(("pdff", -71.0))
+        out["push_forward_change"] = Skip("fell after the push") if dig(f, "fell") else dig(f, "peak_speed_change")
+        out["push_forward_steps"] = Skip("fell after the push") if dig(f, "fell") else dig(f, "steps_to_recover")
+        out["push_backward_change"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
+        out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "steps_to_recover")
+        out["push_forward_survived"] = not dig(f, "fell", default=True)
+    else:
+        for k in ("push_forward_change", "push_forward_steps", "push_backward_change", "push_backward_steps",
+                  "push_forward_survived"):
+            out[k] = skip
+    eff = records.get("efficient")
+    out["exp3_cmt"] = dig(eff, "cmt") if eff else skip
+    tr = records.get("tracking")
+    for c in ("pdff", "iolin"):
+        for o in ("tor", "mLS_st"):
+            key = f"tracking_{c}_{o}_rms_deg"
+            out[key] = dig(tr, "controllers", c, "tracking_rms_deg", _output_name(tr, o)) if tr else skip
+    imp = records.get("impact-scaling")
+    for eta in ETAS:
+        row = next((r for r in (imp or {}).get("rows", []) if abs(r["eta"] - eta) < 1e-9), None)
+        out[f"table1_{_eta_key(eta)}"] = (row["steady_speed_mps"] if row is not None else skip)
+    fast = records.get("fast")
+    out["fast_sustained_mps"] = dig(fast, "speed_after_lean_mps") if fast else skip
+    out["fast_top_mps"] = (max(fast["speed_per_step"]) if fast and fast.get("speed_per_step") else skip)
+    return out
+
+
+def _output_name(rec, short: str):
+    """The tracking record's key for an output ('tor', 'mLS_st')."""
+    names = list(dig(rec, "controllers", "pdff", "tracking_rms_deg", default={}))
+    for n in names:
+        if short.lower() in n.lower():
+            return n
+    return short
+
+
+PAPERS = [
+    Paper(key="identification", title="MABEL: identification of the model, validated by hopping",
+          values=str(DATA / "paper_identification.json"), experiments=IDENTIFICATION_EXPERIMENTS,
+          measure=measure_identification, order=10,
+          figures=(Figure("hop", "hop_joints.png", "Hopping with the torso update: joint angles and hip position (cf. paper Fig. 21)"),
+                   Figure("hop", "hop_torques.png", "Hopping: motor torques (cf. paper Fig. 22)"),
+                   Figure("hop", "hop_cable_stretch.png", "Hopping: cable stretch in motor coordinates (cf. paper Fig. 23)"),
+                   Figure("hop", "hop_periods.png", "Hopping: the period of each hop"),
+                   Figure("identify", "identify_transmission.png", "Transmission experiment: chirp input and response (cf. paper Fig. 13)"),
+                   Figure("identify", "identify_legs_siso.png", "Leg model validation, SISO (cf. paper Fig. 15)"),
+                   Figure("identify", "identify_legs_mimo.png", "Leg model validation, MIMO (cf. paper Fig. 16)"),
+                   Figure("identify", "identify_com.png", "Centre of mass against the supporting toe and the hip (cf. paper Fig. 17)"),
+                   Figure("identify", "identify_springs.png", "Spring stiffness and preload (cf. paper Fig. 19)"),
+                   Figure("identify", "identify_hop_joints.png", "Identified model replaying the hop (cf. paper Fig. 21)"),
+                   Figure("identify", "identify_hop_cable.png", "Identified cable stretch during the hop (cf. paper Fig. 23)")),
+          notes=("The identification runs on a synthetic MABEL (published values perturbed by a seeded few-% draw) "
+                 "whose true parameters are known, so each group's accuracy can be measured; the paper, on the real "
+                 "robot, has no ground truth.",)),
+    Paper(key="hzd", title="MABEL: compliant hybrid zero dynamics walking", values=str(DATA / "paper_hzd.json"),
+          experiments=HZD_EXPERIMENTS, measure=measure_hzd, order=20,
+          figures=(Figure("nominal", "walk_tracking.png", "Exp. 1: tracking errors of the virtual constraints (cf. paper Fig. 12a)"),
+                   Figure("nominal", "walk_torques.png", "Exp. 1: motor torques (cf. paper Fig. 13a)"),
+                   Figure("nominal", "walk_spring_torso.png", "Exp. 1: stance B_spring and torso (cf. paper Figs. 14, 20)"),
+                   Figure("nominal", "walk_speed.png", "Exp. 1: speed per step"),
+                   Figure("push", "pdff_+78N/walk_speed.png", "Exp. 2: speed per step after a 78 N forward push (cf. paper Fig. 16)"),
+                   Figure("push", "pdff_-71N/walk_speed.png", "Exp. 2: speed per step after a 71 N backward push (cf. paper Fig. 16)"),
+                   Figure("design", "nominal/gait_constraints.png", "Nominal gait (0.8 m/s): virtual constraints (cf. paper Fig. 5)"),
+                   Figure("design", "nominal/gait_spring.png", "Nominal gait: leg shape and stance B_spring (cf. paper Fig. 6)"),
+                   Figure("design", "nominal/gait_torques.png", "Nominal gait: actuator torques (cf. paper Fig. 7)"),
+                   Figure("design", "nominal/gait_toe_com.png", "Nominal gait: swing toe height and centre of mass (cf. paper Fig. 8)"),
+                   Figure("design", "efficient/gait_power.png", "c_mt gait: power at the stance leg shape, motor and spring (cf. paper Fig. 9)")),
+          animations=(Figure("nominal", "walk.html", "MABEL walking the nominal gait under PD + feedforward (logged "
+                             "trajectory, stick figure; stance leg blue)", kind="animation"),)),
+]
