@@ -171,7 +171,7 @@ def walk_animation(path, log: dict, step_lengths, seconds: float = 6.0, fps: flo
         return []
     pts = jax.jit(jax.vmap(lambda zz: jnp.stack([cp.point_position(m.body, wk.embed(m, zz)[0], n)
                                                  for n in DRAW_POINTS])))(jnp.asarray(z[keep]))
-    pts = np.asarray(pts)
+    pts = np.array(pts)  # a writable copy
     offsets = np.concatenate([[0.0], np.cumsum(np.asarray(step_lengths, float))])
     step = np.clip(np.asarray(log["step"])[keep].astype(int), 0, len(offsets) - 1)
     pts[:, :, 0] += offsets[step][:, None]

@@ -1,0 +1,110 @@
+"""The report's runner and builder on a paper made up here (no robot): the content-hash cache
+(a second run reuses the stored record and figures, new arguments run again), skipped
+experiments, and the report.json contract."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from bipedlab.report import Experiment, Figure, Paper, Skip, build, runner
+
+CALLS = []
+
+
+def _study(args, out, progress):
+    CALLS.append(dict(args))
+    progress("working")
+    with open(f"{out}/curve.png", "wb") as fh:
+        fh.write(b"\x89PNG fake")
+    with open(f"{out}/bulky.npz", "wb") as fh:
+        fh.write(b"data")
+    return dict(speed=0.78 * args["scale"], hops=args["hops"], fell=False)
+
+
+def _measure(records, quick):
+    r = records.get("run")
+    return dict(speed=r["speed"] if r else Skip("not run"), hops=r["hops"] if r else Skip("not run"),
+                top=Skip("not run in --quick") if quick else 1.0)
+
+
+@pytest.fixture
+def paper(tmp_path, monkeypatch):
+    monkeypatch.setenv("BIPEDLAB_CACHE_DIR", str(tmp_path / "cache"))
+    CALLS.clear()
+    data = dict(paper="toy", title="A toy paper", citation="Nobody, 2024", rows=[
+        dict(id="speed", quantity="speed", paper=0.8, unit="m/s", source="Fig. 1",
+             tolerance=dict(kind="rel", value=0.05, why="two digits"), departs_why="see Fig. 1 below."),
+        dict(id="hops", quantity="hops", paper=92, source="Sec. 2",
+             tolerance=dict(kind="at_least", value=92, why="no fall"), departs_why="falls early; see the record."),
+        dict(id="top", quantity="top speed", paper=1.5, source="Sec. 3",
+             tolerance=dict(kind="abs", value=0.1, why="one digit")),
+    ])
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(data))
+    exps = (Experiment("run", "toy run", _study, dict(scale=1.0, hops=100), dict(scale=1.0, hops=20),
+                       reduction="20 hops", expected_s=3, quick_expected_s=1),
+            Experiment("extra", "toy extra", _study, dict(scale=2.0, hops=1), None, expected_s=2))
+    return Paper("toy", "A toy paper", str(path), exps, _measure,
+                 figures=(Figure("run", "curve.png", "A curve (cf. Fig. 1)"), Figure("run", "gone.png", "Missing")))
+
+
+def test_second_run_reuses_stored_results(paper, tmp_path):
+    lines = []
+    first = runner.run_all([paper], quick=True, say=lines.append)
+    assert len(CALLS) == 1 and not first["toy"][0].cached
+    assert any("expected duration" in m for m in lines) and any("[1/1] toy: run" in m for m in lines)
+    again = runner.run_all([paper], quick=True, say=lines.append)
+    assert len(CALLS) == 1, "the stored result was not reused"
+    r = again["toy"][0]
+    assert r.cached and r.record == first["toy"][0].record
+    assert [p.rsplit("/", 1)[1] for p in r.files] == ["curve.png"]  # data files are not kept
+    runner.run_all([paper], quick=False, say=lines.append)            # other arguments: run again
+    assert len(CALLS) == 3
+    runner.run_all([paper], quick=True, say=lines.append, use_cache=False)
+    assert len(CALLS) == 4
+
+
+def test_the_key_changes_with_arguments_and_paper():
+    k = runner.cache_key("toy", "run", dict(hops=20))
+    assert k == runner.cache_key("toy", "run", dict(hops=20))
+    assert k != runner.cache_key("toy", "run", dict(hops=21))
+    assert k != runner.cache_key("other", "run", dict(hops=20))
+
+
+def test_report_json_contract_and_page(paper, tmp_path):
+    results = runner.run_all([paper], quick=True, say=lambda m: None)
+    out = tmp_path / "report"
+    rep = build.build([paper], results, quick=True, out_dir=out, wall_s=1.5, cpu_s=1.0)
+    disk = json.loads((out / "report.json").read_text())
+    assert disk == json.loads(json.dumps(disk))
+    for key in ("papers", "version", "device", "quick", "wall_s"):
+        assert key in disk
+    assert disk["quick"] is True and disk["wall_s"] == 1.5
+    toy = disk["papers"]["toy"]
+    rows = {r["id"]: r for r in toy["rows"]}
+    for r in toy["rows"]:
+        assert {"quantity", "paper", "source", "bipedlab", "tolerance", "agrees", "why"} <= set(r)
+    assert rows["speed"]["agrees"] is True and rows["speed"]["bipedlab"] == pytest.approx(0.78)
+    assert rows["hops"]["agrees"] is False and rows["hops"]["why"] == "falls early; see the record."
+    assert rows["top"]["agrees"] is None and rows["top"]["bipedlab"] is None
+    assert rows["top"]["why"] == "not run in --quick"
+    assert toy["counts"] == dict(rows=3, agrees=1, departs=1, not_judged=1)
+    exps = {e["name"]: e for e in toy["experiments"]}
+    assert {"wall_s", "compile_s"} <= set(exps["run"]) and exps["run"]["reduction"] == "20 hops"
+    assert exps["extra"]["skipped"] == "not run in --quick"
+    figs = toy["figures"]
+    assert figs[0]["file"] == "toy/run/curve.png" and (out / figs[0]["file"]).is_file()
+    assert figs[1]["file"] is None
+    page = (out / "index.html").read_text()
+    assert 'id="toy"' in page and page.count('<tr class="') == 3
+    assert "http://" not in page and "https://" not in page and "<script" not in page
+    assert rep["papers"]["toy"]["counts"] == toy["counts"]
+
+
+def test_a_measure_that_fails_leaves_every_row_unjudged(paper, tmp_path):
+    broken = Paper(paper.key, paper.title, paper.values, paper.experiments, lambda records, quick: 1 / 0)
+    results = runner.run_all([broken], quick=True, say=lambda m: None)
+    rep = build.build([broken], results, quick=True, out_dir=tmp_path / "r", wall_s=0.0, cpu_s=0.0)
+    rows = rep["papers"]["toy"]["rows"]
+    assert all(r["agrees"] is None and "ZeroDivisionError" in r["why"] for r in rows)
