@@ -93,7 +93,7 @@ def test_report_opens_in_headless_chromium(report):
         severe = [e for e in driver.get_log("browser") if e["level"] == "SEVERE"]
         assert not severe, severe
         images = driver.find_elements(By.TAG_NAME, "img")
-        assert len(images) >= 4
+        assert len(images) >= 3
         for img in images:
             assert driver.execute_script("return arguments[0].naturalWidth", img) > 0, img.get_attribute("src")
         for key in PAPERS:

@@ -19,7 +19,7 @@ tr.notjudged td.verdict{background:#f1f1f1;color:#555}
 .src{color:#666;font-size:.85em}.why{font-size:.88em}
 figure{display:inline-block;margin:.5em 1em .8em 0;vertical-align:top;max-width:540px}
 figure img{max-width:100%;border:1px solid #e0e0e0}figcaption{font-size:.85em;color:#333}
-iframe.animation{width:680px;max-width:100%;height:430px;border:1px solid #ccc;background:#fff}
+iframe.animation{width:700px;max-width:100%;height:730px;border:1px solid #ccc;background:#fff}
 dl.meta{display:grid;grid-template-columns:max-content auto;gap:.1em 1em;font-size:.9em}dl.meta dt{font-weight:600}
 .counts{font-weight:600}.note{font-size:.88em;color:#444}
 nav a{margin-right:1em}

@@ -34,7 +34,48 @@ def _hop(args, out, progress):
 def _identify(args, out, progress):
     from bipedlab.robots.mabel.sysid import study
 
-    return study.study(seed=args["seed"], noise=args["noise"], quick=args["quick"], out=out, progress=progress)
+    rec = study.study(seed=args["seed"], noise=args["noise"], quick=args["quick"], out=out, progress=progress)
+    if out:
+        rec.setdefault("figures", []).append(identified_vs_true(rec.get("parameters") or [], f"{out}/identified_vs_true.png"))
+    return rec
+
+
+def identified_vs_true(parameters: list, path: str) -> str:
+    """Every identified parameter's relative error against its true value, by group (log scale)."""
+    from bipedlab.viz import figures
+
+    rows = [p for p in parameters if p.get("rel_error") is not None and p.get("true") not in (None, 0)]
+    groups = sorted({p.get("group", "") for p in rows})
+    fig, ax = figures.subplots(figsize=(8, 3.8))
+    for k, g in enumerate(groups):
+        err = [max(abs(p["rel_error"]), 1e-7) for p in rows if p.get("group", "") == g]
+        ax.plot(np.full(len(err), k) + np.linspace(-0.15, 0.15, len(err)), err, "o", ms=4)
+    ax.set_yscale("log")
+    ax.set_xticks(range(len(groups)))
+    ax.set_xticklabels([g.replace("_", " ") for g in groups], rotation=25, ha="right", fontsize=8)
+    ax.set_ylabel("|estimate / true - 1|")
+    ax.set_title("Identified against true parameters (synthetic robot)", fontsize=10)
+    return figures.save(fig, path)
+
+
+def eigenvalue_figure(eigs: dict, path: str) -> str:
+    """Poincaré eigenvalues (complex, [re, im] pairs) of each map in the unit circle."""
+    from bipedlab.viz import figures
+
+    fig, ax = figures.subplots(figsize=(4.6, 4.6))
+    t = np.linspace(0, 2 * np.pi, 200)
+    ax.plot(np.cos(t), np.sin(t), "k-", lw=0.8)
+    for (label, ev), marker in zip(eigs.items(), "ox^s"):
+        ev = np.asarray(ev, float).reshape(-1, 2)
+        ax.plot(ev[:, 0], ev[:, 1], marker, ms=6, mfc="none", label=label)
+    ax.set_aspect("equal")
+    ax.set_xlim(-1.1, 1.1)
+    ax.set_ylim(-1.1, 1.1)
+    ax.axhline(0, color="0.8", lw=0.5)
+    ax.axvline(0, color="0.8", lw=0.5)
+    ax.legend(fontsize=7, loc="lower left")
+    ax.set_title("Poincaré eigenvalues in the unit circle", fontsize=10)
+    return figures.save(fig, path)
 
 
 IDENTIFICATION_EXPERIMENTS = (
@@ -91,9 +132,12 @@ def _designs(args, out, progress):
         if args["source"] == "optimize":
             progress(f"designing the {name} gait ({cost} cost) and its Poincaré maps")
             r = wm.optimize(0.8, cost, out=f"{out}/{name}" if out else None, poincare_check=True, progress=progress)
+            pc = r.get("poincare") or {}
             rec[name] = dict(speed_mps=r["speed_mps"], step_length_m=r["step_length_m"], cmt=r["cmt"],
                              negative_work_fraction_spring=r["negative_work_fraction_spring"],
                              eig_hzd=r.get("max_abs_eigenvalue"), eig_pdff=r.get("max_abs_eigenvalue_pdff"),
+                             eigenvalues_hzd=dig(pc, "hzd", "poincare_eigenvalues_complex"),
+                             eigenvalues_pdff=dig(pc, "pdff", "poincare_eigenvalues_complex"),
                              converged=r["converged"], source="optimize mabel")
         else:
             _, _, g = wm.load_gait(name)
@@ -101,12 +145,18 @@ def _designs(args, out, progress):
             rec[name] = dict(speed_mps=d["speed"], step_length_m=d["step_length"], cmt=d["cmt"],
                              negative_work_fraction_spring=d["negative_work_fraction_spring"],
                              eig_hzd=dig(pc, "hzd", "max_abs_eigenvalue"), eig_pdff=dig(pc, "pdff", "max_abs_eigenvalue"),
+                             eigenvalues_hzd=dig(pc, "hzd", "poincare_eigenvalues_complex"),
+                             eigenvalues_pdff=dig(pc, "pdff", "poincare_eigenvalues_complex"),
                              source=f"shipped gait file mabel_{name}.json")
             if out:
                 from bipedlab.robots.mabel.walking import plots as wp
                 from bipedlab.robots.mabel.walking import stance as wk
 
                 rec[name]["figures"] = wp.gait_figures(f"{out}/{name}", wk.walking_model(), wm._design_from_record(g))
+    eigs = {f"{g}, {label}": rec[g][key] for g in rec for key, label in
+            (("eigenvalues_hzd", "restricted map"), ("eigenvalues_pdff", "PD + FF, full map")) if rec[g].get(key)}
+    if out and eigs:
+        rec["eigenvalue_figure"] = eigenvalue_figure(eigs, f"{out}/poincare_eigenvalues.png")
     return rec
 
 
@@ -211,7 +261,9 @@ PAPERS = [
                    Figure("identify", "identify_com.png", "Centre of mass against the supporting toe and the hip (cf. paper Fig. 17)"),
                    Figure("identify", "identify_springs.png", "Spring stiffness and preload (cf. paper Fig. 19)"),
                    Figure("identify", "identify_hop_joints.png", "Identified model replaying the hop (cf. paper Fig. 21)"),
-                   Figure("identify", "identify_hop_cable.png", "Identified cable stretch during the hop (cf. paper Fig. 23)")),
+                   Figure("identify", "identify_hop_cable.png", "Identified cable stretch during the hop (cf. paper Fig. 23)"),
+                   Figure("identify", "identified_vs_true.png", "Every identified parameter against its true value, by "
+                          "group (the paper's Tables III-VI are the groups)")),
           notes=("The identification runs on a synthetic MABEL (published values perturbed by a seeded few-% draw) "
                  "whose true parameters are known, so each group's accuracy can be measured; the paper, on the real "
                  "robot, has no ground truth.",)),
@@ -227,7 +279,9 @@ PAPERS = [
                    Figure("design", "nominal/gait_spring.png", "Nominal gait: leg shape and stance B_spring (cf. paper Fig. 6)"),
                    Figure("design", "nominal/gait_torques.png", "Nominal gait: actuator torques (cf. paper Fig. 7)"),
                    Figure("design", "nominal/gait_toe_com.png", "Nominal gait: swing toe height and centre of mass (cf. paper Fig. 8)"),
-                   Figure("design", "efficient/gait_power.png", "c_mt gait: power at the stance leg shape, motor and spring (cf. paper Fig. 9)")),
+                   Figure("design", "efficient/gait_power.png", "c_mt gait: power at the stance leg shape, motor and spring (cf. paper Fig. 9)"),
+                   Figure("design", "poincare_eigenvalues.png", "Poincaré eigenvalues of both gaits in the unit circle "
+                          "(cf. paper Sec. IV, eq. 49)")),
           animations=(Figure("nominal", "walk.html", "MABEL walking the nominal gait under PD + feedforward (logged "
                              "trajectory, stick figure; stance leg blue)", kind="animation"),)),
 ]
