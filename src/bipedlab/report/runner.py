@@ -121,6 +121,8 @@ class Progress:
     def start(self, k: int, label: str, expected: float, cached: bool) -> None:
         el = time.perf_counter() - self.t0
         left = max(self.total_expected - self.done_expected, 0.0)
+        if self.done_expected > 30.0:  # scale the estimate by how this machine has done so far
+            left *= min(max(el / self.done_expected, 0.5), 4.0)
         what = "cached result" if cached else f"expected {_fmt_s(expected)}"
         self.say(f"[{k}/{len(self.plan)}] {label} ({what}); elapsed {_fmt_s(el)}, about {_fmt_s(left)} left")
 

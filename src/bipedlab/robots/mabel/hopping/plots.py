@@ -63,7 +63,38 @@ def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30
         ax.set_ylabel("period (s)")
         ax.set_title("Hop period, touchdown to touchdown")
         paths.append(figures.save(fig, out / "hop_periods.png"))
+    paths += hop_animation(out / "hop.html", run)
     return paths
+
+
+#: stick figure: torso (hip to head), thighs and shins of both legs
+DRAW_POINTS = ("hip", "head", "knee_L", "toe_L", "knee_R", "toe_R")
+DRAW_SEGMENTS = ((0, 1), (0, 2), (2, 3), (0, 4), (4, 5))
+
+
+def hop_animation(path, run, seconds: float = 4.0, fps: float = 40.0) -> list[str]:
+    """The first ``seconds`` of a hopping run (13-DoF states at the control samples) as an
+    offline HTML stick-figure animation over the ground."""
+    import jax
+    import jax.numpy as jnp
+
+    from bipedlab.mechanics import coupled as cp
+    from bipedlab.robots.mabel import model as mm
+    from bipedlab.viz import animation
+
+    t = np.asarray(run.t)
+    if len(t) < 2:
+        return []
+    keep = np.nonzero(t - t[0] <= seconds)[0][:: max(1, int(round(1.0 / (fps * float(t[1] - t[0])))))]
+    m = mm.hopping_model()
+    n = len(mm.COORDS_13)
+    pts = jax.jit(jax.vmap(lambda q: jnp.stack([cp.point_position(m.body, q, p) for p in DRAW_POINTS])))(
+        jnp.asarray(np.asarray(run.x)[keep, :n]))
+    pts = np.asarray(pts)
+    frames = np.stack([np.stack([pts[:, a], pts[:, b]], axis=1) for a, b in DRAW_SEGMENTS], axis=1)
+    return animation.write(path, frames, t[keep] - t[keep][0], ground=0.0,
+                           colors=["#444444", "#1f77b4", "#1f77b4", "#d62728", "#d62728"],
+                           widths=[5.0, 2.5, 2.5, 2.5, 2.5], follow=True, title="MABEL hopping")
 
 
 def _per_actuator(t, data, ylabel: str, title: str, path: Path) -> str:
