@@ -15,6 +15,33 @@ import jax  # noqa: E402
 assert jax.config.jax_enable_x64, "importing bipedlab must enable float64"
 
 
+def _shared_compile_cache() -> None:
+    """One persistent JAX compilation cache for the whole run: the test processes (pytest-xdist
+    workers) and the commands they start as subprocesses (through BIPEDLAB_CACHE_DIR) compile
+    each program once. A fresh folder per run, so no result depends on an earlier run; tests
+    that need their own cache (tests/golden, the CLI tests) still set one."""
+    import tempfile
+
+    path = os.environ.get("BIPEDLAB_TEST_XLA_CACHE")
+    if not path:
+        path = tempfile.mkdtemp(prefix="bipedlab-test-xla-")
+        os.environ["BIPEDLAB_TEST_XLA_CACHE"] = path  # inherited by the xdist workers
+        _created.append(path)
+    os.environ.setdefault("BIPEDLAB_CACHE_DIR", path)
+    jax.config.update("jax_compilation_cache_dir", path)
+
+
+_created: list = []
+_shared_compile_cache()
+
+
+def pytest_unconfigure(config):
+    import shutil
+
+    for path in _created:  # only the process that made the folder removes it
+        shutil.rmtree(path, ignore_errors=True)
+
+
 @pytest.fixture(scope="session")
 def mujoco():
     return pytest.importorskip("mujoco")

@@ -97,4 +97,4 @@ def test_cli_identify_usage_errors(tmp_path, capsys):
     expect_usage_error(["identify", "mabel"], capsys, needle="--synthetic")
     expect_usage_error(["identify", "mabel", "--data", str(tmp_path), "--noise", "2"], capsys, needle="--synthetic only")
     expect_usage_error(["identify", "mabel", "--data", str(tmp_path)], capsys, needle="no .csv logs")
-    expect_usage_error(["identify", "mabel", "--synthetic", "--noise", "-1"], capsys, needle="non-negative")
+    expect_usage_error(["identify", "mabel", "--synthetic", "--noise", "-1"], capsys, needle="--noise: expected a number in [0,")
