@@ -36,6 +36,8 @@ def _known():
 
 
 def _validate(args) -> None:
+    if args.list:
+        args.out = None  # a listing writes nothing
     known = _known()
     bad = [k for k in args.papers if k not in known]
     if bad:
