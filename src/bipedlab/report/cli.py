@@ -15,8 +15,14 @@ from bipedlab.cli import Command, UsageError, add_out, text
 DEFAULT_OUT = "bipedlab-report"
 
 
+def paper_name(value: str) -> str:
+    """argparse type of a PAPER word: non-empty text (checked against the registered papers by
+    the command's validate)."""
+    return text(value)
+
+
 def _arguments(p) -> None:
-    p.add_argument("papers", nargs="*", type=text, metavar="PAPER",
+    p.add_argument("papers", nargs="*", type=paper_name, metavar="PAPER",
                    help="papers to reproduce (default: all); `bipedlab reproduce --list` names them")
     p.add_argument("--quick", action="store_true",
                    help="a reduced version of every experiment (fewer steps, trials, hops; a reduced sysid design), "
