@@ -95,7 +95,7 @@ EXPERIMENTS = (
     Experiment("flat", "bipedlab run atrias --distance 60", _run, FLAT, dict(FLAT, distance=20.0),
                reduction="20 m instead of 60 m", expected_s=70, quick_expected_s=40),
     Experiment("rough", f"bipedlab run atrias --terrain rough --trials {TRIALS}", _run, ROUGH_REG, _quick(ROUGH_REG),
-               reduction=_R, expected_s=150, quick_expected_s=40),
+               reduction=_R, expected_s=150, quick_expected_s=35),
     Experiment("rough-conservation", f"bipedlab run atrias --terrain rough --energy conservation --trials {TRIALS}", _run,
                ROUGH_CONS, None, expected_s=150, skip_reason=_SKIP),
     Experiment("slope", f"bipedlab run atrias --terrain rough --slope 1 --trials {TRIALS}", _run, SLOPE, None,

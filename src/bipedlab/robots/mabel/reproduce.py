@@ -81,7 +81,7 @@ IDENTIFICATION_EXPERIMENTS = (
     Experiment("identify", "bipedlab identify mabel --synthetic", _identify, dict(seed=0, noise=1.0, quick=False),
                dict(seed=0, noise=1.0, quick=True),
                reduction="reduced experiment design (shorter chirps, fewer postures and hops; the sysid study's quick design)",
-               expected_s=900, quick_expected_s=260),
+               expected_s=900, quick_expected_s=220),
     Experiment("hop", f"bipedlab hop mabel --hops {HOPS}", _hop, dict(hops=HOPS, torso_update=True, poincare=True),
                dict(hops=QUICK_HOPS, torso_update=True, poincare=False),
                reduction=f"{QUICK_HOPS} hops instead of {HOPS}; no Poincaré analysis (it compiles for minutes)",

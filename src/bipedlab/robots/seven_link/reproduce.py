@@ -34,7 +34,7 @@ EXPERIMENTS = (
     Experiment("walk", f"bipedlab walk seven-link --steps {WALK_STEPS}", _walk,
                dict(steps=WALK_STEPS, params="tuned"), dict(steps=QUICK_WALK_STEPS, params="tuned"),
                reduction=f"{QUICK_WALK_STEPS} steps instead of {WALK_STEPS} (gait figures over steps 7-10 only)",
-               expected_s=240, quick_expected_s=150),
+               expected_s=240, quick_expected_s=130),
     Experiment("walk-table-ii", f"bipedlab walk seven-link --steps {WALK_STEPS} --params paper", _walk,
                dict(steps=WALK_STEPS, params="paper"), None, expected_s=200,
                skip_reason="not run in --quick (a second walk, compiled again)"),
