@@ -24,7 +24,7 @@ def test_paper_values_file_is_well_formed(key):
     for row in data["rows"]:
         assert row["source"].strip() and row["tolerance"]["why"].strip()
         if row["tolerance"]["kind"] != "report":
-            assert row.get("departs_why") or row["id"].endswith("torso_travel_deg"), row["id"]
+            assert row.get("departs_why"), row["id"]
 
 
 @pytest.mark.parametrize("key", PAPERS)

@@ -152,6 +152,11 @@ def _designs(args, out, progress):
                 from bipedlab.robots.mabel.walking import stance as wk
 
                 rec[name]["figures"] = wp.gait_figures(f"{out}/{name}", wk.walking_model(), wm._design_from_record(g))
+    for name in rec:  # the torso's range along the designed orbit (q_s[5] is the torso angle)
+        orbit = Path(f"{out}/{name}/gait_orbit.npz") if out else None
+        if orbit is not None and orbit.is_file():
+            tor = np.degrees(np.load(orbit)["q_s"][:, 5])
+            rec[name]["torso_travel_deg"] = float(tor.max() - tor.min())
     eigs = {f"{g}, {label}": rec[g][key] for g in rec for key, label in
             (("eigenvalues_hzd", "restricted map"), ("eigenvalues_pdff", "PD + FF, full map")) if rec[g].get(key)}
     if out and eigs:
@@ -204,7 +209,7 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         for k in ("speed_mps", "step_length_m", "cmt", "negative_work_fraction_spring", "eig_hzd", "eig_pdff"):
             if (g, k) != ("efficient", "step_length_m"):  # the paper gives no step for the c_mt gait
                 out[f"{g}_{k}"] = dig(d, k) if d is not None else Skip("not run")
-    out["nominal_torso_travel_deg"] = Skip("the gait design does not report the torso's range yet")
+    out["nominal_torso_travel_deg"] = dig(des.get("nominal"), "torso_travel_deg") if des else Skip("not run")
     nom = records.get("nominal")
     skip = Skip(NOT_QUICK) if quick else Skip("not run")
     out["exp1_speed_mps"] = dig(nom, "speed_mps") if nom else skip
