@@ -110,8 +110,9 @@ def build(papers: list, results: dict, quick: bool, out_dir, wall_s: float, cpu_
         for kind, items in (("figure", p.figures), ("animation", p.animations)):
             for f in items:
                 path = copied.get(f.experiment, {}).get(f.file)
+                skipped = next((r.skipped for r in res if r.name == f.experiment), None)
                 figs.append(dict(kind=kind, experiment=f.experiment, file=path, caption=f.caption,
-                                 missing=None if path else "not produced in this run"))
+                                 missing=None if path else (skipped or "not produced in this run")))
         n_ok = sum(r["agrees"] is True for r in rows)
         n_bad = sum(r["agrees"] is False for r in rows)
         report["papers"][p.key] = dict(

@@ -226,8 +226,8 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
             prog.start(k, label, expected, cached[id(e)])
             r = run_experiment(p, e, quick, prog.inner(label), use_cache=use_cache)
             prog.finish(expected)
-            say(f"  {label}: done in {_fmt_s(r.wall_s)}{' (stored result)' if r.cached else ''}"
-                f"{'' if r.cached else f', compile {_fmt_s(r.compile_s)}'}")
+            say(f"  {label}: stored result of a {_fmt_s(r.wall_s)} run" if r.cached else
+                f"  {label}: done in {_fmt_s(r.wall_s)}, compile {_fmt_s(r.compile_s)}")
             results[p.key].append(r)
     return results
 

@@ -4,6 +4,7 @@ noise, delay and model errors (Sec. IV-C), through :mod:`bipedlab.robots.atrias.
 rough cases batched over random terrains). Paper values: ``data/paper_running.json``."""
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -113,9 +114,12 @@ EXPERIMENTS = (
                       ("inertia", 0.5), ("friction", 0.5)))
 
 
-def _stats(rec, prefix: str) -> dict:
+_STATS = ("apex_sd_m", "speed_sd_mps", "apex_error_m", "speed_error_mps", "success")
+
+
+def _stats(rec, prefix: str, missing: Skip) -> dict:
     if rec is None:
-        return {}
+        return {f"{prefix}_{k}": missing for k in _STATS}
     return {f"{prefix}_apex_sd_m": dig(rec, "apex_height_sd_m"), f"{prefix}_speed_sd_mps": dig(rec, "speed_sd_mps"),
             f"{prefix}_apex_error_m": dig(rec, "apex_height_error_mean_m"),
             f"{prefix}_speed_error_mps": dig(rec, "speed_error_mean_mps"),
@@ -124,7 +128,9 @@ def _stats(rec, prefix: str) -> dict:
 
 
 def measure(records: dict, quick: bool) -> dict:
-    out = {}
+    missing = Skip("not run in --quick" if quick else "not run")
+    out = {k: missing for k in ("flat_apex_error_m", "flat_speed_error_mps", "flat_success", "flat_slip_apex_error_m",
+                                "rough_slip_apex_sd_m", "rough_slip_speed_sd_mps")}
     flat = records.get("flat")
     if flat is not None:
         h, v = dig(flat, "last10", "apex_height_error_mean_m"), dig(flat, "last10", "speed_error_mean_mps")
@@ -134,15 +140,16 @@ def measure(records: dict, quick: bool) -> dict:
         out["flat_slip_apex_error_m"] = dig(flat, "slip_model", "apex_height_error_mean_m")
     for name, prefix in (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"), ("noise", "noise"),
                          ("delay", "delay")):
-        out.update(_stats(records.get(name), prefix))
+        out.update(_stats(records.get(name), prefix, missing))
     rough = records.get("rough")
     if rough is not None:
         out["rough_slip_apex_sd_m"] = dig(rough, "slip_model", "apex_height_sd_m")
         out["rough_slip_speed_sd_mps"] = dig(rough, "slip_model", "speed_sd_mps")
     for e in EXPERIMENTS:
         if e.name.startswith(("mass", "stiffness", "inertia", "friction")):
-            out.update(_stats(records.get(e.name), e.name))
-    return {k: v for k, v in out.items()}
+            out.update(_stats(records.get(e.name), e.name, missing))
+    rows = {r["id"] for r in json.loads(DATA.read_text(encoding="utf-8"))["rows"]}
+    return {k: v for k, v in out.items() if k in rows}
 
 
 PAPERS = [Paper(
