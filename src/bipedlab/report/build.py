@@ -55,7 +55,9 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         measured = {r["id"]: Skip(f"could not read the records: {type(e).__name__}: {e}") for r in data["rows"]}
     out = []
     for r in data["rows"]:
-        v = measured.get(r["id"], Skip("not measured by this reproduction"))
+        absent = "its experiment was not run" if any(rec is None for rec in records.values()) else \
+            "not measured by this reproduction"
+        v = measured.get(r["id"], Skip(absent))
         reason = None
         if isinstance(v, Skip):
             reason, v = v.reason, None
