@@ -1,7 +1,7 @@
 """The `bipedlab optimize` and `bipedlab walk` commands (five-link HZD studies).
 
-The walk runs are subprocesses sharing one JAX compilation cache (BIPEDLAB_CACHE_DIR in a
-temporary directory), so the second run reuses the first one's Poincaré compilation. The
+The walk runs are subprocesses sharing the test run's JAX compilation cache (BIPEDLAB_CACHE_DIR,
+a fresh folder per run), so the second run reuses the first one's Poincaré compilation. The
 full optimisation (about a minute) is marked slow; tests/gait/test_hzd_gait.py checks a few
 solver iterations by default."""
 from __future__ import annotations
@@ -40,7 +40,9 @@ def _console_script():
 
 @pytest.fixture(scope="module")
 def env(tmp_path_factory):
-    return dict(os.environ, BIPEDLAB_CACHE_DIR=str(tmp_path_factory.mktemp("bipedlab_cache")))
+    # the run's shared cache (tests/conftest.py), so programs the in-process tests compiled are reused
+    shared = os.environ.get("BIPEDLAB_TEST_XLA_CACHE") or str(tmp_path_factory.mktemp("bipedlab_cache"))
+    return dict(os.environ, BIPEDLAB_CACHE_DIR=shared)
 
 
 def _run(args, env, timeout=400):
