@@ -134,14 +134,18 @@ def _hopping(ident, out, paths):
     figures.save(fig, out / "identify_hop_cable.png", paths)
 
 
-def write_figures(ident, out) -> list[str]:
-    """Every figure the identification has data for; returns the written paths."""
+def write_figures(ident, out, say=None) -> list[str]:
+    """Every figure the identification has data for; returns the written paths. ``say`` (a
+    one-argument callable) is told, one line each, which figures were not drawn and why."""
     out = figures.output_dir(out)
     paths: list[str] = []
-    _transmission(ident, out, paths)
-    _legs(ident, out, paths, "siso", 15)
-    _legs(ident, out, paths, "mimo", 16)
-    _springs(ident, out, paths)
-    _com(ident, out, paths)
-    _hopping(ident, out, paths)
+    for what, draw in (("transmission (Fig. 13)", _transmission),
+                       ("SISO leg validation (Fig. 15)", lambda i, o, p: _legs(i, o, p, "siso", 15)),
+                       ("MIMO leg validation (Fig. 16)", lambda i, o, p: _legs(i, o, p, "mimo", 16)),
+                       ("springs (Fig. 19)", _springs), ("centre of mass (Fig. 17)", _com),
+                       ("hopping (Figs. 21, 23)", _hopping)):
+        before = len(paths)
+        draw(ident, out, paths)
+        if len(paths) == before and say is not None:
+            say(f"no {what} figure: the logs hold no experiment of that kind")
     return paths

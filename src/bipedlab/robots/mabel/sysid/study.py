@@ -124,7 +124,7 @@ def study(synthetic_data: bool = True, data: str | None = None, seed: int = 0, n
 
         if progress:
             progress(f"writing figures and logs to {out}")
-        rec["figures"] = identify_plots.write_figures(ident, out)
+        rec["figures"] = identify_plots.write_figures(ident, out, say=progress)
         if data is None:
             rec["logs_written"] = len(sysid.write_logs(logs, f"{out}/logs"))
     rec["wall_time_s"] = time.perf_counter() - t0
