@@ -66,4 +66,12 @@ CLI = {
     "cli_optimize_five_link": Case("cli", ("optimize", "five-link"), slow=True, rtol=1e-6, atol=1e-9),
 }
 
+#: cases derived from another case's result (recorded beside it, not run on their own):
+#: the sysid estimates of the identify record
+DERIVED = {
+    "sysid_quick": Case("sysid_quick", slow=True, rtol=1e-6, atol=1e-9, special=SYSID),
+}
+
 ALL = {**QUANTITIES, **CLI}
+#: every name _check.check accepts
+CHECKED = {**ALL, **DERIVED}
