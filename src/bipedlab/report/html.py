@@ -80,27 +80,30 @@ def _experiments(exps: list) -> str:
     return "\n".join(out)
 
 
+def _media(items: list, render) -> str:
+    """Each figure or animation through ``render``, or, where its file is missing, why."""
+    return "\n".join(render(f) if f["file"] is not None else
+                     f'<p class="note">{escape(f["caption"])}: {escape(f["missing"] or "not produced")}.</p>'
+                     for f in items)
+
+
+def _figure(f) -> str:
+    return (f'<figure><img src="{escape(f["file"])}" alt="{escape(f["caption"])}" loading="eager">'
+            f'<figcaption>{escape(f["caption"])}</figcaption></figure>')
+
+
+def _animation(a) -> str:
+    return (f'<figure class="animation"><iframe class="animation" src="{escape(a["file"])}" '
+            f'title="{escape(a["caption"])}"></iframe><figcaption>{escape(a["caption"])} '
+            f'(<a href="{escape(a["file"])}">open</a>)</figcaption></figure>')
+
+
 def _figures(figs: list) -> str:
-    out = []
-    for f in figs:
-        if f["file"] is None:
-            out.append(f'<p class="note">{escape(f["caption"])}: {escape(f["missing"] or "not produced")}.</p>')
-            continue
-        out.append(f'<figure><img src="{escape(f["file"])}" alt="{escape(f["caption"])}" loading="eager">'
-                   f'<figcaption>{escape(f["caption"])}</figcaption></figure>')
-    return "\n".join(out)
+    return _media(figs, _figure)
 
 
 def _animations(anims: list) -> str:
-    out = []
-    for a in anims:
-        if a["file"] is None:
-            out.append(f'<p class="note">{escape(a["caption"])}: {escape(a["missing"] or "not produced")}.</p>')
-            continue
-        out.append(f'<figure class="animation"><iframe class="animation" src="{escape(a["file"])}" '
-                   f'title="{escape(a["caption"])}"></iframe><figcaption>{escape(a["caption"])} '
-                   f'(<a href="{escape(a["file"])}">open</a>)</figcaption></figure>')
-    return "\n".join(out)
+    return _media(anims, _animation)
 
 
 def page(report: dict) -> str:
