@@ -13,7 +13,7 @@ import pytest
 import bipedlab
 
 PKG = Path(bipedlab.__file__).parent
-CORE = ["mechanics", "contact", "sim", "control", "gait", "viz", "io", "report"]
+CORE = ["mechanics", "contact", "sim", "control", "gait", "viz", "io", "report", "robustness"]
 ROBOT_WORDS = re.compile(r"mabel|atrias|seven[_ -]?link|five[_ -]?link|compass|rabbit", re.I)
 
 

@@ -95,3 +95,7 @@ COMMANDS = [
     Command("walk", ROBOT, "closed-loop HZD walking on a designed gait, optionally from a perturbed state",
             _walk_arguments, _walk, validate=_walk_validate),
 ]
+
+from bipedlab.robots.five_link.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)
+
+COMMANDS.append(_ROBUSTNESS)
