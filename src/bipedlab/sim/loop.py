@@ -77,10 +77,19 @@ class LoopState:
     failed_at: jax.Array
 
 
+def _strong(a):
+    """``a`` as an array of its own dtype without JAX's weak type: a Python scalar in a state
+    (``jnp.asarray(-1)``) is weakly typed, while the loop hands back strongly typed values, so
+    the second chunk of a run would see a new signature and compile the whole loop again."""
+    a = jnp.asarray(a)
+    return jnp.asarray(a, dtype=a.dtype)
+
+
 def initial_state(x0, sensor_state=None, ctrl_state=None, t0=0.0) -> LoopState:
-    """The loop's state at its first sample."""
-    return LoopState(x=x0, sensor=sensor_state, ctrl=ctrl_state, t=jnp.asarray(t0, float),
-                     k=jnp.asarray(0), status=jnp.asarray(OK), failed_at=jnp.asarray(-1))
+    """The loop's state at its first sample (every leaf strongly typed, see :func:`_strong`)."""
+    s = LoopState(x=x0, sensor=sensor_state, ctrl=ctrl_state, t=jnp.asarray(t0, float),
+                  k=jnp.asarray(0), status=jnp.asarray(OK), failed_at=jnp.asarray(-1))
+    return jax.tree_util.tree_map(_strong, s)
 
 
 def _finite(tree) -> jax.Array:
