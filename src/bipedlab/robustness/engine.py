@@ -95,7 +95,7 @@ def outcome_arrays(out: dict, horizon: int) -> dict:
 def _bar(name: str, done: int, n: int, rate: float) -> None:
     w = 30
     k = int(w * done / max(n, 1))
-    print(f"\r[bipedlab] {name} [{'#' * k}{'.' * (w - k)}] {done}/{n} trials, {rate:.1f} trials/s",
+    print(f"\r[bipedlab] {name} [{'#' * k}{'.' * (w - k)}] {done}/{n} trials, {rate:.3g} trials/s",
           end="" if done < n else "\n", file=sys.stderr, flush=True)
 
 
@@ -192,7 +192,7 @@ def summary(rec: dict) -> str:
     lines = [
         f"robustness {rec['study']}: {rec['survived']}/{rec['trials']} trials survived {rec['horizon']} {rec['unit']}"
         f" ({100 * rec['survival_rate']:.1f} %); fell {rec['fell']}, non-finite {rec['nonfinite']} (seed {rec['seed']})",
-        f"{rec['trials_per_s']:.1f} trials/s on {rec['devices']} device(s) [{rec['device']}] in {rec['processes']} "
+        f"{rec['trials_per_s']:.3g} trials/s on {rec['devices']} device(s) [{rec['device']}] in {rec['processes']} "
         f"process(es); first chunk (with compilation) {rec['first_chunk_s']:.1f} s, total {rec['run_s']:.1f} s",
     ]
     axes = rec.get("axes") or []

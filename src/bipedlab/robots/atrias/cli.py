@@ -81,3 +81,7 @@ COMMANDS = [
     Command("run", "atrias", "spring-mass running embedded in the articulated ATRIAS-like biped on unobserved terrain",
             _run_arguments, _run, validate=_run_validate),
 ]
+
+from bipedlab.robots.atrias.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)
+
+COMMANDS.append(_ROBUSTNESS)
