@@ -203,3 +203,7 @@ COMMANDS = [
     Command("identify", ROBOT, "system identification from synthetic experiments or logged data",
             _identify_arguments, _identify, validate=_identify_validate),
 ]
+
+from bipedlab.robots.mabel.robustness import HOPPING as _HOPPING, WALKING as _WALKING  # noqa: E402  (no JAX at import)
+
+COMMANDS += [_WALKING, _HOPPING]

@@ -48,3 +48,7 @@ COMMANDS = [
     Command("experiment", ROBOT, "validation experiments: " + "|".join(EXPERIMENTS), _experiment_arguments,
             _experiment),
 ]
+
+from bipedlab.robots.seven_link.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)
+
+COMMANDS.append(_ROBUSTNESS)
