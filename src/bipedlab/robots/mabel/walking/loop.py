@@ -65,7 +65,8 @@ class Setup:
     whether the encoders are quantised (1.0) or exact (0.0), and a forward torso lean (rad,
     :func:`~bipedlab.robots.mabel.walking.constraints.lean`) reached in ``lean_steps`` equal increments, one
     per touchdown (Exp. 5); ``observer`` 1.0 estimates the rates with the model-based observer
-    of :func:`_rate_estimate` instead of the filtered difference (0.0)."""
+    of :func:`_rate_estimate` instead of the filtered difference (0.0); the push starts
+    ``push_start`` nominal periods into its step (0.5: the second half, as Exp. 2)."""
 
     vc: vcm.Constraints
     gains: ctl.Gains
@@ -77,6 +78,7 @@ class Setup:
     lean: jax.Array = 0.0
     lean_steps: jax.Array = 1
     observer: jax.Array = 0.0
+    push_start: jax.Array = 0.5
 
 
 @pytree
@@ -129,7 +131,7 @@ def _measure(setup: Setup, z):
 
 
 def _hip_force(setup: Setup, s: Plant):
-    on = (s.step == setup.push_step) & (s.t_step >= 0.5 * setup.period)
+    on = (s.step == setup.push_step) & (s.t_step >= setup.push_start * setup.period)
     return jnp.stack([jnp.where(on, setup.push_force, 0.0), 0.0])
 
 
