@@ -25,7 +25,11 @@ def write(out, study, params: dict, res: dict, frac, count, rec: dict) -> list:
     if len(axes) >= 2:
         fig, ax = fg.subplots(figsize=(6.2, 4.8))
         a0, a1 = axes[0], axes[1]
-        m = np.asarray(frac, float).reshape(a0.bins, a1.bins, -1)[..., 0] if np.ndim(frac) > 2 else np.asarray(frac, float)
+        m = np.asarray(frac, float)
+        if m.ndim > 2:  # more axes: the map over the first two
+            from bipedlab.robustness.engine import survival_map
+
+            m = survival_map(params, res["survived"], axes[:2])[0]
         im = ax.imshow(np.ma.masked_invalid(m), origin="lower", aspect="auto", vmin=0.0, vmax=1.0, cmap="RdYlGn",
                        extent=(a1.lo, a1.hi, a0.lo, a0.hi))
         fig.colorbar(im, ax=ax, label="survival fraction")
