@@ -196,12 +196,12 @@ def summary(rec: dict) -> str:
         f"process(es); first chunk (with compilation) {rec['first_chunk_s']:.1f} s, total {rec['run_s']:.1f} s",
     ]
     axes = rec.get("axes") or []
-    if len(axes) >= 1:
+    if 1 <= len(axes) <= 2:
         m = np.asarray([[np.nan if v is None else v for v in (row if isinstance(row, list) else [row])]
                         for row in rec["survival_map"]], float)
         a0 = axes[0]
         head = f"survival map: rows {a0['name']} ({a0['unit'] or '-'})"
-        if len(axes) >= 2:
+        if len(axes) == 2:
             a1 = axes[1]
             head += f", columns {a1['name']} " + " ".join(f"{c:.3g}" for c in a1["centers"])
         lines.append(head)
