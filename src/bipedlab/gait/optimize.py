@@ -43,7 +43,8 @@ class GaitProblem:
     stance: the stance model; H0 (m, n) and c (n,) define outputs and phase; order: Bézier
     order M; nodes: RK4 steps in the phase; speed: m/s; cost: 'torque' | 'cmt'; mu: friction
     ratio bound; clearance_window: fraction of the step at each end where the swing-toe
-    height constraint is not imposed (the toe leaves and reaches the ground there)."""
+    height constraint is not imposed (the toe leaves and reaches the ground there);
+    torque_limits: (m,) largest |u| per input at every node, N m (inf: none), or None."""
 
     stance: Stance
     H0: np.ndarray
@@ -54,6 +55,7 @@ class GaitProblem:
     cost: str = "torque"
     mu: float = 0.6
     clearance_window: float = 0.1
+    torque_limits: tuple | None = None
 
     def __hash__(self):
         return id(self)
@@ -177,6 +179,12 @@ def evaluate(prob: GaitProblem, x):
             thd_m,
         ]),
     ])
+    if prob.torque_limits is not None:
+        lim = np.asarray(prob.torque_limits, float)
+        bounded = np.flatnonzero(np.isfinite(lim))
+        if bounded.size:                                   # |u| within the actuators' limits
+            r = u[:, bounded] / lim[bounded]
+            ineq = jnp.concatenate([ineq, (1.0 - r).ravel(), (1.0 + r).ravel()])
     metrics = dict(
         vc=vc, z_plus=zp, z_minus=z_minus, step_length=step_length, period=T,
         speed=step_length / T, torque_cost=torque_cost, cmt=cmt, thetas=thetas,

@@ -1,0 +1,77 @@
+"""HZD gait design and closed-loop walking of a biped read from an MJCF or URDF file: the
+core's study (:mod:`bipedlab.gait.study`) on the model :mod:`.robot` sets up, with the same
+record keys as the shipped robots' studies plus the file, the stance and swing points and the
+torque limits. A gait file remembers its stance and swing points, so ``walk`` needs only the
+robot's file and the gait."""
+from __future__ import annotations
+
+import os
+from importlib import resources
+
+import numpy as np
+
+from bipedlab.gait import gaitfile
+from bipedlab.gait import study as hzd_study
+from bipedlab.robots.imported import robot
+
+#: Robot files shipped with the package (found by name when no such file is in the way).
+EXAMPLES = ("rabbit.xml", "rabbit.urdf")
+
+
+def resolve(path: str) -> str:
+    """The file itself, or a shipped example named by its file name (e.g. ``rabbit.xml``)."""
+    if os.path.exists(path) or os.path.basename(path) != path or path not in EXAMPLES:
+        return path
+    return str(resources.files("bipedlab.robots.imported").joinpath("data", path))
+
+
+def _limits(s: robot.Setup) -> list:
+    return [float(v) if np.isfinite(v) else None for v in s.desc.torque_limits]
+
+
+def _extra(s: robot.Setup) -> dict:
+    return dict(file=s.desc.source, stance=s.stance_name, swing=s.swing_name,
+                actuators=list(s.desc.actuators), torque_limits_nm=_limits(s))
+
+
+def optimize(path, stance: str, swing: str, speed: float = 0.8, cost: str = "torque", controller: str = "iolin",
+             save=None, plane: str = "xz", progress=None) -> dict:
+    s = robot.load(resolve(path), stance, swing, plane)
+    prob = hzd_study.problem(s.study, speed, cost)
+    rec, vc, z_minus, met = hzd_study.design(s.study, prob, robot.initial_guess(s, prob), controller, cost, progress)
+    rec.update(_extra(s))
+    if save:
+        hzd_study.save_gait(s.study, save, vc, z_minus, rec)
+    return rec
+
+
+def load_gait(path: str, gait: str, plane: str = "xz"):
+    """(setup, virtual constraints, fixed point, gait record) of a gait file designed for the
+    robot in ``path``; ValueError naming the file and the field otherwise."""
+    rec = gaitfile.read_json(gait)
+    design = (rec.get("payload") or {}).get("design") if isinstance(rec, dict) else None
+    if not isinstance(design, dict) or not isinstance(design.get("stance"), str) \
+            or not isinstance(design.get("swing"), str):
+        raise ValueError(f"{gait}: payload.design: no stance and swing points (not a gait of optimize model)")
+    s = robot.load(resolve(path), design["stance"], design["swing"], plane)
+    n, m = s.study.H0.shape[1], s.study.H0.shape[0]
+    vc, z, full = gaitfile.from_dict(rec, gait, (n, m))
+    if full.get("robot") != robot.ROBOT:
+        raise ValueError(f"{gait}: robot: a gait for {full.get('robot')!r}, not {robot.ROBOT!r}")
+    return s, vc, z, full
+
+
+def walk(path, gait, steps: int = 50, perturb: float = 0.0, controller: str = "iolin", seed: int = 0,
+         plane: str = "xz", progress=None) -> dict:
+    s, vc, z_star, meta = load_gait(path, gait, plane)
+    rec, _, _ = hzd_study.walk(s.study, vc, z_star, meta, steps, perturb, controller, seed, progress)
+    rec.update(_extra(s))
+    return rec
+
+
+def summary_optimize(r: dict) -> str:
+    return f"{r['file']} (stance {r['stance']}, swing {r['swing']})\n" + hzd_study.summary_optimize(r)
+
+
+def summary_walk(r: dict) -> str:
+    return f"{r['file']} (stance {r['stance']}, swing {r['swing']})\n" + hzd_study.summary_walk(r)
