@@ -4,12 +4,34 @@ as steps (:func:`from_function`); :func:`height_function` turns a terrain into t
 
 A terrain is a piecewise-constant step profile plus a constant grade:
 ``ground(x) = heights[floor((x - x0) / step_len)] + grade * x`` (x in m). ``heights[0]`` is the
-start, 0. Rough terrain (running paper, Section IV-B): a step every ``step_len`` = 3 m whose
-height change is uniform in [-H, H] (the paper's "height changes up to +-25 cm"), with the
-level kept within [-H, H] by reversing a change that would leave it (choice: the paper's
-Fig. 8 shows ground "flat on average"; a free random walk drifts by about H sqrt(n / 3) and
-changes the running energy without bound). The first ``flat_start`` m are level so every
-trial starts alike. Terrains of one batch share the array length so they stack (vmap over the leading axis).
+start, 0. The first ``flat_start`` m are level so every trial starts alike. Terrains of one
+batch share the array length so they stack (vmap over the leading axis).
+
+Rough terrain of the running paper (Section IV-B, Figs. 6 and 8), :func:`rough` mode
+``"paper"`` (the default). What the paper states, and what follows from it:
+
+* step spacing: "random steps every 3m" -> ``step_len`` = 3 m;
+* height distribution: "height changes up to +-25cm" -> the change between neighbouring levels
+  never exceeds H = 25 cm; Fig. 8's top row is "ground that is flat on average" (its bottom row
+  adds the 1 % slope), so the level has no drift and no trend over the 60 m;
+* how the level evolves over 60 m (20 steps): a level that is flat on average and whose changes
+  are bounded by H, with nothing else stated, is read as independent levels, each uniform in
+  [-H/2, H/2]: every change then lies in [-H, H] (triangular, the full 25 cm reached only
+  between opposite extremes), the mean level is 0 at every step and the level s.d. is
+  H / (2 sqrt 3) = 7.2 cm at any distance, however long the run.
+
+What this reading implies for the paper's own spring-mass figure: the policy returns the
+bounce height above the previous stance's ground in one step and the model conserves energy,
+so an apex over a level h has speed v with v^2 = v*^2 - 2 g h: speed s.d. about g / v* = 1.96
+(m/s per m) times the level s.d., 14 cm/s for 7.2 cm; the paper's 18.6 cm/s corresponds to a
+level s.d. near 9.5 cm. The text alone does not give that: the two literal readings bracket it
+("each level within +-H", 14.4 cm, mode ``"level"``; "changes uniform in +-H", an unbounded
+walk, mode ``"walk"``). The measured spread of both readings is in the running study's report.
+
+Mode ``"bounded"`` (the former default, ``--terrain rough-reflected`` in ``bipedlab run
+atrias``): changes uniform in [-H, H], a change that would take the level outside [-H, H]
+reversed; its level s.d. is 0.117-0.127 m over 60 m, and the spring-mass speed s.d. on it
+30-45 % above the paper's.
 """
 from __future__ import annotations
 
@@ -47,22 +69,29 @@ def flat(length: float = 60.0, step_len: float = 3.0) -> Terrain:
 
 
 def rough(rng: np.random.Generator, max_step: float, length: float = 60.0, step_len: float = 3.0,
-          grade: float = 0.0, flat_start: float = 3.0, mode: str = "bounded") -> Terrain:
-    """Random steps every step_len m. mode "bounded" (default): height changes uniform in
-    [-max_step, max_step], a change that would take the level outside [-max_step, max_step]
-    is reversed; "level": each level uniform in [-max_step, max_step] (changes up to twice
-    max_step); "walk": unbounded random walk of the changes."""
+          grade: float = 0.0, flat_start: float = 3.0, mode: str = "paper") -> Terrain:
+    """Random steps every step_len m, changes between neighbouring levels up to max_step (H).
+    mode "paper" (default, the derivation in the module docstring): independent levels, each
+    uniform in [-H/2, H/2]; "bounded": changes uniform in [-H, H], a change that would take the
+    level outside [-H, H] is reversed; "level": each level uniform in [-H, H] (changes up to
+    2 H); "walk": unbounded random walk of changes uniform in [-H, H]."""
     n = int(np.ceil(length / step_len)) + 8
+    if mode == "paper":
+        h = rng.uniform(-0.5 * max_step, 0.5 * max_step, size=n)
+        h[0] = 0.0
+        return Terrain(jnp.asarray(h), float(step_len), float(flat_start), float(grade))
     dh = rng.uniform(-max_step, max_step, size=n)
     if mode == "level":
         h = dh.copy()
     elif mode == "walk":
         h = np.cumsum(dh)
-    else:  # "bounded": changes within +-max_step, the level reflected into [-max_step, max_step]
+    elif mode == "bounded":  # changes within +-max_step, the level reflected into [-max_step, max_step]
         h = np.zeros(n)
         for j in range(1, n):
             nxt = h[j - 1] + dh[j]
             h[j] = nxt if abs(nxt) <= max_step else h[j - 1] - dh[j]
+    else:
+        raise ValueError(f"rough terrain mode must be paper, bounded, level or walk, got {mode!r}")
     h[0] = 0.0
     return Terrain(jnp.asarray(h), float(step_len), float(flat_start), float(grade))
 

@@ -111,10 +111,10 @@ def test_system_com_matches_the_plant_and_flight_predictor_is_ballistic():
 
 
 def test_flat_ground_with_10ms_sensing_delay_tracks_the_gait():
-    """10 ms delay: the flight predictor, the delay-capped leg-length PD and the spring on the
+    """10 ms delay with --delay-compensation (the controller knows its delay): the flight predictor, the delay-capped leg-length PD and the spring on the
     predicted leg length keep the gait (measured seed 0: last apexes within 0.5 cm, 1 cm/s;
     without them the speed ran away by +3 m/s in 8 s or the robot fell)."""
-    st = ra.Settings(terrain="flat", seconds=5.0, energy="conservation", delay_ms=10.0)
+    st = ra.Settings(terrain="flat", seconds=5.0, energy="conservation", delay_ms=10.0, delay_compensation=True)
     out, _ = ra.simulate(st, 1)
     assert out["status"][0] == 0
     k = out["n_apex"][0]

@@ -17,9 +17,11 @@ def test_cli_json_trials_and_outputs(tmp_path, capsys):
     assert len(lines) == 1
     rec = json.loads(lines[0])
     for key in ("fell", "distance_m", "apex_height_error_mean_m", "apex_height_sd_m", "speed_error_mean_mps",
-                "speed_sd_mps", "trunk_pitch_rms_deg", "success_rate", "trials", "wall_s", "slip_model"):
+                "speed_sd_mps", "trunk_pitch_rms_deg", "success_rate", "trials", "wall_s", "slip_model",
+                "apex_height_error_steady_m", "speed_error_steady_mps", "delay_compensation"):
         assert key in rec, key
     assert rec["trials"] == 2 and rec["success_rate"] == 1.0 and rec["fell"] == 0
+    assert rec["delay_compensation"] is False
     assert 5.0 < rec["distance_m"] < 10.0
     assert "success_rate" in rec["slip_model"]
     assert os.path.exists(out / "apex.png") and os.path.exists(out / "run_atrias.npz")
@@ -28,6 +30,10 @@ def test_cli_json_trials_and_outputs(tmp_path, capsys):
 @pytest.mark.parametrize("bad", [["mass"], ["mass=abc"], ["weight=0.2"], ["mass=-1.5"]])
 def test_cli_bad_model_error_exits_2(capsys, bad):
     expect_usage_error(["run", "atrias", "--model-error", *bad], capsys, needle="--model-error")
+
+
+def test_cli_delay_compensation_needs_a_delay(capsys):
+    expect_usage_error(["run", "atrias", "--delay-compensation"], capsys, needle="--delay-compensation")
 
 
 @pytest.mark.slow

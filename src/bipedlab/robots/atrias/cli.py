@@ -28,10 +28,12 @@ def model_error_value(value: str) -> tuple:
 
 
 def _run_arguments(p) -> None:
-    p.add_argument("--terrain", choices=["flat", "rough", "slope"], default="flat",
-                   help="flat ground, random steps every 3 m, or a constant slope (default flat)")
+    p.add_argument("--terrain", choices=["flat", "rough", "rough-reflected", "slope"], default="flat",
+                   help="flat ground; random steps every 3 m as derived from the paper (rough: independent levels "
+                        "uniform in -H/2..H/2, changes up to H) or the former variant (rough-reflected: changes "
+                        "uniform in -H..H, level reflected within -H..H); or a constant slope (default flat)")
     p.add_argument("--step-height", type=float_in(0.0, 0.5), default=None, metavar="H",
-                   help="rough: largest step height in m, steps uniform in -H..H (default 0.25)")
+                   help="rough terrains: largest height change between steps in m (default 0.25)")
     p.add_argument("--slope", type=float_in(-30.0, 30.0), default=None, metavar="PCT",
                    help="slope: grade in percent (default 1)")
     span = p.add_mutually_exclusive_group()
@@ -40,7 +42,12 @@ def _run_arguments(p) -> None:
                       help="distance to run in m (default 60)")
     p.add_argument("--noise", action="store_true",
                    help="sensor noise of Section IV-C: +-3 deg, +-3 deg/s, +-3 cm, +-3 cm/s, sampled every 3 ms")
-    p.add_argument("--delay-ms", type=float_in(0.0, 100.0), default=0.0, metavar="MS", help="sensing delay in ms")
+    p.add_argument("--delay-ms", type=float_in(0.0, 100.0), default=0.0, metavar="MS",
+                   help="loop delay in ms: the controller sees every measurement MS late, so its forces act MS late "
+                        "(Section IV-C); the controller does not know it")
+    p.add_argument("--delay-compensation", action="store_true",
+                   help="the controller knows the delay and bridges it (ballistic flight prediction, spring on the "
+                        "predicted leg length, leg-length bandwidth cap); off by default")
     p.add_argument("--model-error", type=model_error_value, nargs="+", action="extend", default=[], metavar="NAME=REL",
                    help=f"relative error of a model parameter the controller assumes, e.g. mass=0.2 inertia=-0.5; "
                         f"NAME one of {', '.join(MODEL_ERRORS)}, REL in {MODEL_ERROR.text}, each NAME once")
@@ -57,7 +64,9 @@ def _run_validate(args) -> None:
     twice = sorted({n for n in names if names.count(n) > 1})
     if twice:
         raise UsageError(f"--model-error: {', '.join(twice)} given more than once")
-    if args.step_height is not None and args.terrain != "rough":
+    if args.delay_compensation and not args.delay_ms:
+        raise UsageError("--delay-compensation applies with --delay-ms MS > 0")
+    if args.step_height is not None and not args.terrain.startswith("rough"):
         raise UsageError(f"--step-height applies to --terrain rough, not {args.terrain}")
     if args.slope is not None and args.terrain == "flat":
         raise UsageError("--slope applies to --terrain slope or rough, not flat")
@@ -71,9 +80,9 @@ def _run(args, progress):
     st = run_atrias.Settings(
         terrain=args.terrain, step_height=0.25 if args.step_height is None else float(args.step_height),
         slope=1.0 if args.slope is None else float(args.slope), seconds=args.seconds,
-        rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain == "rough") else 0.0,
+        rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain.startswith("rough")) else 0.0,
         distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
-        delay_ms=float(args.delay_ms), model_error=errs, energy=args.energy, trials=args.trials, seed=int(args.seed))
+        delay_ms=float(args.delay_ms), delay_compensation=bool(args.delay_compensation), model_error=errs, energy=args.energy, trials=args.trials, seed=int(args.seed))
     return run_atrias.study(st, out_dir=args.out, progress=run_atrias.progress_bar), run_atrias.summary
 
 

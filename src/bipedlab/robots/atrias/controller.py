@@ -55,8 +55,11 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
   injects k0 tau int l_v'^2 dt, about 90 J per stance at 10 ms: the speed ran away); the
   leg-length PD bandwidth is capped at 0.5 / tau (:func:`_leg_pd`: at 10 ms the nominal
   gains made the swing legs limit-cycle by +-10 cm, the real cause of the early, random
-  touchdowns). A constant-rate prediction of the lift-off test lost every trial; all three
-  are off without delay;
+  touchdowns; the cap is always designed for at least 10 ms, see :func:`_leg_pd`). A
+  constant-rate prediction of the lift-off test lost every trial; the prediction and the spring
+  on the predicted length are off unless the controller is told its delay
+  (``--delay-compensation``); without it the controller runs the paper's experiment, measurements
+  and so forces late by the delay, with no knowledge of it;
 - a landing with a short virtual leg (early, on a step-up) sets that stance's rest length to
   the touchdown length (at least 0.8 l0) instead of starting with a pre-compressed spring.
 """
@@ -106,8 +109,9 @@ class CtrlParams:
     k_mod_max: float = 0.5
     ki_angle: float = 0.25
     a_trim_max: float = 0.03
-    delay: float = 0.0            # known sensing delay (s) that the flight predictor bridges
+    delay: float = 0.0            # known sensing delay (s) that the flight predictor bridges (--delay-compensation)
     leg_delay_margin: float = 0.5  # leg-length loop bandwidth times the delay (rad), see _leg_pd
+    leg_design_delay: float = 0.010  # loop delay (s) the swing-leg length loop is designed to tolerate, see _leg_pd
     leg_zeta: float = 0.7
 
 
@@ -199,10 +203,17 @@ def _leg_pd(cp, l_target, l, ld):
     70 deg of delay phase) put the swing legs into a +-10 cm, 50 ms bang-bang limit cycle so
     the landing foot met the ground at a random phase of it. The natural frequency is
     therefore capped at w_tau = leg_delay_margin / tau (kp <= m_f w_tau^2) with damping ratio
-    leg_zeta (kd <= 2 zeta sqrt(kp m_f)); unchanged without delay."""
+    leg_zeta (kd <= 2 zeta sqrt(kp m_f)).
+
+    The controller does not know the delay it runs with (the paper's experiment): the cap is
+    designed for ``leg_design_delay`` = 10 ms whatever the delay (kp = 500 N/m, kd = 14 N s/m on
+    the 0.2 kg foot: w = 50 rad/s, a leg-length loop at 8 Hz), or for the known delay if larger
+    (--delay-compensation). Measured without delay on 8 terrains of 30 m (energy conservation):
+    success 100 % with either gains."""
     kp, kd = cp.kp_leg, cp.kd_leg
-    if cp.delay > 0 and cp.mp.m_f > 0:
-        w = cp.leg_delay_margin / cp.delay
+    tau = max(float(cp.delay), float(cp.leg_design_delay))
+    if tau > 0 and cp.mp.m_f > 0:
+        w = cp.leg_delay_margin / tau
         kp = min(kp, cp.mp.m_f * w * w)
         kd = min(kd, 2 * cp.leg_zeta * (kp * cp.mp.m_f) ** 0.5)
     return jnp.clip(kp * (l_target - l) - kd * ld, -cp.f_swing_max, cp.f_swing_max)

@@ -6,8 +6,9 @@ errors, beside the pure spring-mass model on the same terrains (Fig. 8).
 1 s re-use it, with a progress bar on stderr) and returns the per-trial apex records and
 status; ``study`` turns them into the record printed by ``bipedlab run atrias``.
 Statistics skip the first two apexes (the start transient) and, for the robot, count only
-apexes before a fall; ``last10`` holds the mean errors over the last ten apexes of each
-surviving trial (the steady state on flat ground).
+apexes before a fall; ``apex_height_error_steady_m`` and ``speed_error_steady_mps`` (also as
+``last10``) are the mean errors over the last ten apexes of each surviving trial, the paper's
+steady-state errors, beside the whole-run means that include the start transient.
 """
 from __future__ import annotations
 
@@ -32,7 +33,10 @@ from bipedlab.contact import terrain as tr
 from bipedlab.outputs import dump_json
 
 MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
+#: rough terrains (--terrain) -> bipedlab.contact.terrain.rough mode
+ROUGH_MODES = {"rough": "paper", "rough-reflected": "bounded"}
 SKIP_APEX = 2
+STEADY_APEXES = 10  # the steady state: the last ten apexes of a run
 _CHUNKS: dict = {}  # compiled chunk functions, re-used across calls in one process
 
 
@@ -45,6 +49,7 @@ class Settings:
     distance: float = 60.0
     noise: bool = False
     delay_ms: float = 0.0
+    delay_compensation: bool = False  # the controller knows its delay and bridges it (see controller.py)
     model_error: tuple = ()          # ((name, rel), ...)
     energy: str = "regulation"
     trials: int | None = None
@@ -83,8 +88,11 @@ def _build(model_error, energy):
     s_m, s_i, s_f, s_k = (1 + err.get(k, 0.0) for k in MODEL_ERRORS)
     mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, 0.8 * s_f, m_f=rp.m_f * s_m)
     gait = slip.Gait(1.05, 5.0)
+    # a mass or stiffness error is one of the controller's model wherever it is used: the swing-leg
+    # policy (the spring-mass model it is derived from) and the stance control (inverse dynamics,
+    # energy, the virtual spring); the plant keeps its true values
     smm_ctrl = slip.SlipParams(m=rp.m * s_m)
-    pol, samples = slip.swing_policy(smm_ctrl, gait)
+    pol, samples = slip.swing_policy(smm_ctrl.replace(k0=smm_ctrl.k0 * s_k), gait)
     cp = rc.make_params(mp, slip.SlipParams(m=rp.m), pol, regulation=(energy == "regulation"),
                         tau_max=rp.tau_max, stiffness_scale=s_k)
     return rp, cp, gait, samples
@@ -96,13 +104,28 @@ def make_terrains(st: Settings, n: int, length: float):
         ts = [tr.flat(length) for _ in range(n)]
     elif st.terrain == "slope":
         ts = [tr.slope(st.slope, length) for _ in range(n)]
-    else:
-        ts = [tr.rough(rng, st.step_height, length, grade=st.rough_grade_percent / 100.0) for _ in range(n)]
+    else:  # "rough": the paper's terrain as derived in bipedlab.contact.terrain; "rough-reflected": the former one
+        mode = ROUGH_MODES[st.terrain]
+        ts = [tr.rough(rng, st.step_height, length, grade=st.rough_grade_percent / 100.0, mode=mode) for _ in range(n)]
     return tr.stack(ts)
 
 
 def duration(st: Settings) -> float:
     return float(st.seconds) if st.seconds else st.distance / 5.0 * 1.25 + 1.0
+
+
+def loop_config(st: Settings, cp, log: bool = False, dt: float = ar.DT):
+    """The loop's static settings and the controller parameters for st. The delay (Sec. IV-C)
+    holds back every measurement the controller receives by whole 1 ms samples (state and
+    contact switches alike), so every force it commands acts that much late: the controller is
+    a causal function of its measurement sequence, hence delaying all its inputs by N samples
+    delays all its outputs by N samples, the paper's "delay of force generation". The
+    controller knows nothing of it (cp.delay = 0) unless st.delay_compensation."""
+    cfg = ar.RunConfig(noise=st.noise, delay=int(round(st.delay_ms / (ar.CONTROL_DT * 1e3))), log=log,
+                       dt=dt, substeps=int(round(ar.CONTROL_DT / dt)))
+    if st.delay_compensation:  # the controller knows its delay and bridges it
+        cp = cp.replace(delay=cfg.delay * ar.CONTROL_DT)
+    return cfg, cp
 
 
 def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: float = 1.0,
@@ -114,9 +137,7 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
     T = duration(st)
     length = (st.distance if not st.seconds else 6.0 * T) + 12.0
     terr = make_terrains(st, n, length)
-    cfg = ar.RunConfig(noise=st.noise, delay=int(round(st.delay_ms / (ar.CONTROL_DT * 1e3))), log=log,
-                       dt=dt, substeps=int(round(ar.CONTROL_DT / dt)))
-    cp = cp.replace(delay=cfg.delay * ar.CONTROL_DT)  # the controller knows its sensing delay
+    cfg, cp = loop_config(st, cp, log, dt)
     c0 = ar.initial_state(rp, cp, cfg)
     c = jax.tree_util.tree_map(lambda a: jnp.broadcast_to(a, (n,) + jnp.shape(a)), c0)
     if theta0_offsets_deg is not None or st.theta0_offset_deg:
@@ -127,7 +148,7 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
     trials = ar.Trial(terr, jax.random.split(jax.random.PRNGKey(st.seed), n))
     n_chunk = int(round(chunk_s / ar.CONTROL_DT))
     n_chunks = int(np.ceil(T / chunk_s))
-    key = (tuple(st.model_error), st.energy, cfg, n_chunk)
+    key = (tuple(st.model_error), st.energy, cfg, n_chunk, float(cp.delay))
     if key not in _CHUNKS:
         _CHUNKS[key] = ar.make_chunk(rp, cp, cfg, n_chunk, batched=True)
     f = _CHUNKS[key]
@@ -164,6 +185,31 @@ def _stats(bounce, speed, gait):
                 speed_error_mean_mps=float(np.mean(speed) - gait.speed), speed_sd_mps=float(np.std(speed)))
 
 
+def level_stats(heights, terr, distance: float) -> dict:
+    """Statistics of the step levels under the run (m): the levels from the start to
+    ``distance``, pooled over the trials: their s.d., the mean of each trial's own s.d. (that of
+    one run, as the paper's single run), and the largest change between neighbouring levels."""
+    n = int(np.ceil((distance - float(terr.x0)) / float(terr.step_len))) + 1
+    h = np.asarray(heights)[:, :max(n, 2)]
+    return dict(level_sd_m=float(np.std(h)), level_sd_per_run_m=float(np.mean(np.std(h, axis=1))),
+                level_change_max_m=float(np.max(np.abs(np.diff(h, axis=1)))), levels_per_run=int(h.shape[1]))
+
+
+def steady_errors(out, survivors, gait, last: int = STEADY_APEXES) -> dict:
+    """The paper's steady-state errors (Sec. IV-A: "steady state errors of 1.8cm and 0.8cm/s"):
+    the mean apex-height and apex-speed errors over the last ``last`` apexes of each surviving
+    trial (pooled over trials), never reaching into the first SKIP_APEX apexes of the start
+    transient. The whole-run means (``apex_height_error_mean_m``, ``speed_error_mean_mps``)
+    include the transient from the start state. A run too short for an apex past the transient
+    has no steady state: NaN (null in JSON)."""
+    tail = [(out["bounce"][i, max(SKIP_APEX, k - last):k], out["speed"][i, max(SKIP_APEX, k - last):k])
+            for i in survivors for k in [min(int(out["n_apex"][i]), ar.MAX_APEX)]]
+    tb = np.concatenate([a for a, _ in tail] or [np.zeros(0)])
+    ts = np.concatenate([b for _, b in tail] or [np.zeros(0)])
+    return dict(apex_height_error_steady_m=float(tb.mean() - gait.y_apex) if tb.size else float("nan"),
+                speed_error_steady_mps=float(ts.mean() - gait.speed) if ts.size else float("nan"))
+
+
 def slip_model(st: Settings, terr, n: int, gait):
     """The pure spring-mass model with the same policy on the same terrains."""
     p = slip.SlipParams(m=at.AtriasParams().m)
@@ -193,9 +239,11 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
     b = np.concatenate([_apex_arrays(out, i)[0] for i in survivors] or [np.zeros(0)])
     s = np.concatenate([_apex_arrays(out, i)[1] for i in survivors] or [np.zeros(0)])
     rec = dict(robot="atrias", terrain=st.terrain, energy=st.energy, noise=st.noise, delay_ms=st.delay_ms,
+               delay_compensation=bool(st.delay_compensation),
                model_error=dict(st.model_error), seed=st.seed)
-    if st.terrain == "rough":
+    if st.terrain in ROUGH_MODES:
         rec["step_height_m"] = st.step_height
+        rec["terrain_levels"] = level_stats(out["heights"], terr, float(np.max(out["x"])))
         if st.rough_grade_percent:
             rec["slope_percent"] = st.rough_grade_percent
     if st.terrain == "slope":
@@ -206,13 +254,11 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
                reached_target=bool(reached.all()), **_stats(b, s, gait),
                trunk_pitch_rms_deg=float(np.rad2deg(np.mean(out["pitch_rms"][ok]))) if ok.any() else float("nan"),
                apexes=int(b.size), wall_s=wall)
-    tail = [(out["bounce"][i, max(SKIP_APEX, k - 10):k], out["speed"][i, max(SKIP_APEX, k - 10):k])
-            for i in survivors for k in [min(int(out["n_apex"][i]), ar.MAX_APEX)]]
-    if tail:
-        tb, ts = np.concatenate([a for a, _ in tail]), np.concatenate([b for _, b in tail])
-        # a run too short for an apex past the start transient has no steady state: NaN (null in JSON)
-        rec["last10"] = dict(apex_height_error_mean_m=float(tb.mean() - gait.y_apex) if tb.size else float("nan"),
-                             speed_error_mean_mps=float(ts.mean() - gait.speed) if ts.size else float("nan"))
+    steady = steady_errors(out, survivors, gait)
+    rec.update(steady)
+    if survivors:
+        rec["last10"] = dict(apex_height_error_mean_m=steady["apex_height_error_steady_m"],
+                             speed_error_mean_mps=steady["speed_error_steady_mps"])
     if single:
         rec["status"] = ar.STATUS_NAMES[int(out["status"][0])]
     else:
@@ -250,6 +296,9 @@ def summary(rec: dict) -> str:
         lines.append(f"  fell: {rec['fell']}  distance {rec['distance_m']:.1f} m")
     lines.append(f"  apex height error {100 * rec['apex_height_error_mean_m']:+.1f} cm (s.d. {100 * rec['apex_height_sd_m']:.1f} cm),"
                  f" speed error {100 * rec['speed_error_mean_mps']:+.1f} cm/s (s.d. {100 * rec['speed_sd_mps']:.1f} cm/s)")
+    if "apex_height_error_steady_m" in rec:
+        lines.append(f"  steady state (last 10 apexes): apex height error {100 * rec['apex_height_error_steady_m']:+.1f} cm,"
+                     f" speed error {100 * rec['speed_error_steady_mps']:+.1f} cm/s")
     lines.append(f"  trunk pitch rms error {rec['trunk_pitch_rms_deg']:.2f} deg over {rec['apexes']} apexes")
     s = rec["slip_model"]
     lines.append(f"  spring-mass model: success {100 * s['success_rate']:.0f} %, apex s.d. {100 * s['apex_height_sd_m']:.1f} cm,"
