@@ -68,27 +68,50 @@ def _global(host: np.ndarray, sharding: NamedSharding):
     return jax.make_array_from_callback(host.shape, sharding, lambda idx: host[idx])
 
 
-def sharded_map(fn: Callable, mesh: Mesh | None = None) -> Callable:
-    """``run(batch) -> outcomes``: ``vmap(fn)`` over the leading axis of the pytree ``batch`` of
-    host arrays (its length a multiple of the mesh size), sharded over the mesh, outcomes gathered
-    as NumPy arrays on every process. The compiled program is kept across calls of ``run`` with
-    the same shapes."""
-    mesh = global_mesh() if mesh is None else mesh
-    spec = P(AXIS)
-    sharding = NamedSharding(mesh, spec)
-    body = jax.vmap(fn)
-    mapped = jax.jit(jax.shard_map(body, mesh=mesh, in_specs=spec, out_specs=spec, check_vma=False))
+class ShardedMap:
+    """``vmap(fn)`` over the leading axis of a pytree of host arrays (its length a multiple of
+    the mesh size), sharded over the mesh, outcomes gathered as NumPy arrays on every process.
+    :meth:`compile` compiles ahead of time for a batch's shapes (and returns the seconds it
+    took); calls with the same shapes reuse the program."""
 
-    def run(batch):
+    def __init__(self, fn: Callable, mesh: Mesh | None = None):
+        self.mesh = global_mesh() if mesh is None else mesh
+        spec = P(AXIS)
+        self.sharding = NamedSharding(self.mesh, spec)
+        self._jit = jax.jit(jax.shard_map(jax.vmap(fn), mesh=self.mesh, in_specs=spec, out_specs=spec,
+                                          check_vma=False))
+        self._compiled: dict = {}
+
+    def _arrays(self, batch):
         n = jax.tree_util.tree_leaves(batch)[0].shape[0]
-        if n % mesh.size:
-            raise ValueError(f"batch of {n} is not a multiple of the {mesh.size} devices")
-        arrays = jax.tree_util.tree_map(lambda a: _global(np.asarray(a), sharding), batch)
-        out = mapped(arrays)
+        if n % self.mesh.size:
+            raise ValueError(f"batch of {n} is not a multiple of the {self.mesh.size} devices")
+        return jax.tree_util.tree_map(lambda a: _global(np.asarray(a), self.sharding), batch)
+
+    def _program(self, arrays):
+        key = jax.tree_util.tree_structure(arrays), tuple((a.shape, a.dtype) for a in jax.tree_util.tree_leaves(arrays))
+        prog = self._compiled.get(key)
+        if prog is None:
+            prog = self._compiled[key] = self._jit.lower(arrays).compile()
+        return prog
+
+    def compile(self, batch) -> float:
+        import time
+
+        t0 = time.perf_counter()
+        self._program(self._arrays(batch))
+        return time.perf_counter() - t0
+
+    def __call__(self, batch):
+        arrays = self._arrays(batch)
+        out = self._program(arrays)(arrays)
         if jax.process_count() > 1:
             from jax.experimental import multihost_utils
 
             return jax.tree_util.tree_map(np.asarray, multihost_utils.process_allgather(out, tiled=True))
         return jax.tree_util.tree_map(np.asarray, jax.device_get(out))
 
-    return run
+
+def sharded_map(fn: Callable, mesh: Mesh | None = None) -> ShardedMap:
+    """``run(batch) -> outcomes``: see :class:`ShardedMap`."""
+    return ShardedMap(fn, mesh)
