@@ -88,3 +88,7 @@ COMMANDS = [
     Command("walk", ROBOT, "closed-loop HZD walking of a biped in an MJCF or URDF file on a designed gait",
             _walk_arguments, _walk, validate=_walk_validate),
 ]
+
+from bipedlab.robots.imported.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)
+
+COMMANDS.append(_ROBUSTNESS)

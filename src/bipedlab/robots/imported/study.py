@@ -29,8 +29,8 @@ def _limits(s: robot.Setup) -> list:
     return [float(v) if np.isfinite(v) else None for v in s.desc.torque_limits]
 
 
-def _extra(s: robot.Setup) -> dict:
-    return dict(file=s.desc.source, stance=s.stance_name, swing=s.swing_name,
+def _extra(s: robot.Setup, path) -> dict:
+    return dict(file=str(path), stance=s.stance_name, swing=s.swing_name,
                 actuators=list(s.desc.actuators), torque_limits_nm=_limits(s))
 
 
@@ -39,7 +39,7 @@ def optimize(path, stance: str, swing: str, speed: float = 0.8, cost: str = "tor
     s = robot.load(resolve(path), stance, swing, plane)
     prob = hzd_study.problem(s.study, speed, cost)
     rec, vc, z_minus, met = hzd_study.design(s.study, prob, robot.initial_guess(s, prob), controller, cost, progress)
-    rec.update(_extra(s))
+    rec.update(_extra(s, path))
     if save:
         hzd_study.save_gait(s.study, save, vc, z_minus, rec)
     return rec
@@ -65,7 +65,7 @@ def walk(path, gait, steps: int = 50, perturb: float = 0.0, controller: str = "i
          plane: str = "xz", progress=None) -> dict:
     s, vc, z_star, meta = load_gait(path, gait, plane)
     rec, _, _ = hzd_study.walk(s.study, vc, z_star, meta, steps, perturb, controller, seed, progress)
-    rec.update(_extra(s))
+    rec.update(_extra(s, path))
     return rec
 
 
