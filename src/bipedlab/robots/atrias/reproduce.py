@@ -163,6 +163,10 @@ PAPERS = [Paper(
              Figure("slope", "apex.png", "Rough terrain on a 1 % slope, energy regulation (cf. paper Fig. 8, bottom row)"),),
     animations=(Figure("flat", "running.html", "The ATRIAS-like biped running on flat ground (first 3 s of the log)",
                        kind="animation"),),
-    notes=("The rough-terrain rows pool the apexes of every terrain draw that did not fall (random steps every 3 m "
-           "within ±25 cm); the paper's numbers are from one run each.",),
+    notes=("The rough-terrain rows pool the apexes of every terrain draw that did not fall (random steps every 3 m, "
+           "changes up to ±25 cm: independent levels uniform within ±12.5 cm, flat on average, the reading of the "
+           "paper's text documented in bipedlab.contact.terrain); the paper's numbers are from one run each.",
+           "The delay and model-error experiments run as the paper's: the controller does not know its 10 ms delay "
+           "(--delay-compensation not given), and a mass or stiffness error is one of the controller's model, in the "
+           "swing-leg policy and the stance control alike, the robot keeping its true values.",),
 )]
