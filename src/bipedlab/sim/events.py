@@ -131,6 +131,28 @@ def regula_falsi(g: Callable, a, b, ga, gb, iterations: int):
     return a - ga * (b - a) / (gb - ga)
 
 
+def regula_falsi_with(g: Callable, a, b, ga, gb, iterations: int):
+    """:func:`regula_falsi` for a ``g`` that returns ``(value, aux)`` (e.g. the event function
+    and the state it was computed from): the same ``iterations`` updates, then one more
+    evaluation at the final false-position point, all in one ``lax.scan`` over a single traced
+    ``g``. Returns (x, aux at x): the same x as :func:`regula_falsi`, and aux without a second
+    copy of ``g`` in the program."""
+    aux0 = jax.eval_shape(lambda: g(a)[1])
+    aux0 = jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), aux0)
+
+    def body(c, _):
+        a, b, ga, gb, x_prev, aux_prev = c
+        x = a - ga * (b - a) / (gb - ga)
+        gx, aux = g(x)
+        left = gx > 0.0
+        return (jnp.where(left, x, a), jnp.where(left, b, x), jnp.where(left, gx, ga), jnp.where(left, gb, gx),
+                x, aux), None
+
+    c = jax.lax.scan(body, (a, b, ga, gb, jnp.zeros_like(jnp.asarray(a, float)), aux0), None,
+                     length=iterations + 1)[0]
+    return c[4], c[5]
+
+
 def newton(g: Callable, x0, iterations: int):
     """``iterations`` Newton steps on g(x) = 0 from x0, g' by forward mode. Returns x."""
     def body(x, _):

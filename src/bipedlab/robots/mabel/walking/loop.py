@@ -42,8 +42,8 @@ from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.pytree import pytree
 from bipedlab.sim import loop as sl
 from bipedlab.sim import sensors
-from bipedlab.sim.events import regula_falsi
-from bipedlab.sim.integrators import rk4
+from bipedlab.sim.events import regula_falsi_with
+from bipedlab.sim.integrators import rk4_scan
 
 SAMPLE = 1e-3
 SUBSTEPS = 4
@@ -137,7 +137,7 @@ def _hip_force(setup: Setup, s: Plant):
 
 def _rk4(m, z, u, f, h):
     """RK4 substep of the stance dynamics under torque u and hip force f, both held."""
-    return rk4(lambda x, uf: wk.stance_flow(m, x, uf[0], uf[1]), z, (u, f), h)
+    return rk4_scan(lambda x, uf: wk.stance_flow(m, x, uf[0], uf[1]), z, (u, f), h)
 
 
 def _toe(m, z):
@@ -152,8 +152,11 @@ def _substep(m, setup, z, u, f, t_step, h):
     touched = (g0 > 0.0) & (g1 <= 0.0) & (t_step > 0.1 * setup.period)
 
     def touchdown(_):
-        x = regula_falsi(lambda x: _toe(m, _rk4(m, z, u, f, x * h)), 0.0, 1.0, g0, g1, 6)
-        zm = _rk4(m, z, u, f, x * h)
+        def at(x):
+            zx = _rk4(m, z, u, f, x * h)
+            return _toe(m, zx), zx
+
+        x, zm = regula_falsi_with(at, 0.0, 1.0, g0, g1, 6)
         tr = wk.impact(m, zm, setup.eta)
         zp = _rk4(m, tr.z_plus, u, 0.0 * f, (1.0 - x) * h)
         return zp, x, tr.step[0]
