@@ -10,7 +10,9 @@ independent, so the program has no communication: per device it is the same vmap
 """
 from __future__ import annotations
 
+import contextlib
 import os
+import sys
 from typing import Callable
 
 import jax
@@ -38,11 +40,28 @@ def initialize(coordinator: str | None = None, num_processes: int | None = None,
         jax.config.update("jax_cpu_collectives_implementation", "gloo")
     except Exception:
         pass
-    if slurm:
-        jax.distributed.initialize()
-    else:
-        jax.distributed.initialize(coordinator_address=coordinator, num_processes=num_processes,
-                                   process_id=process_id)
+    with _stdout_to_stderr():  # the collectives library announces its peers on stdout (fd 1)
+        if slurm:
+            jax.distributed.initialize()
+        else:
+            jax.distributed.initialize(coordinator_address=coordinator, num_processes=num_processes,
+                                       process_id=process_id)
+        jax.devices()  # the backend (and its collectives) comes up here, still on stderr
+
+
+@contextlib.contextmanager
+def _stdout_to_stderr():
+    """File descriptor 1 pointed at stderr meanwhile, so that what native libraries print
+    keeps stdout for the command's own output (``--json``)."""
+    sys.stdout.flush()
+    saved = os.dup(1)
+    try:
+        os.dup2(2, 1)
+        yield
+    finally:
+        sys.stdout.flush()
+        os.dup2(saved, 1)
+        os.close(saved)
 
 
 def process_count() -> int:

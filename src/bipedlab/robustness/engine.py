@@ -2,6 +2,7 @@
 write the NPZ and figures (see the package docstring for the contract)."""
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import math
 import sys
@@ -142,16 +143,18 @@ def run(study: Study, trials: int, seed: int = 0, chunk: int | None = None, out=
     total = math.ceil(trials / block) * block
     padded = _pad(params, total)
     mapped = dist.sharded_map(study.trial, mesh)
-    compile_s = mapped.compile({k: v[:block] for k, v in padded.items()})
     pieces, t_run = [], 0.0
-    for start in range(0, total, block):
-        piece = {k: v[start:start + block] for k, v in padded.items()}
-        t0 = time.perf_counter()
-        pieces.append(mapped(piece))
-        t_run += time.perf_counter() - t0
-        if progress and lead:
-            done = min(start + block, trials)
-            _bar(study.name, done, trials, done / max(t_run, 1e-9))
+    # several processes: the collectives library announces its peers on fd 1 at the first gather
+    with dist._stdout_to_stderr() if jax.process_count() > 1 else contextlib.nullcontext():
+        compile_s = mapped.compile({k: v[:block] for k, v in padded.items()})
+        for start in range(0, total, block):
+            piece = {k: v[start:start + block] for k, v in padded.items()}
+            t0 = time.perf_counter()
+            pieces.append(mapped(piece))
+            t_run += time.perf_counter() - t0
+            if progress and lead:
+                done = min(start + block, trials)
+                _bar(study.name, done, trials, done / max(t_run, 1e-9))
     raw = {k: np.concatenate([p[k] for p in pieces])[:trials] for k in pieces[0]}
     res = outcome_arrays(raw, study.horizon)
     rate = trials / max(t_run, 1e-9)

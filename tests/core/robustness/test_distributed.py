@@ -36,8 +36,9 @@ def launch(args_per_process, timeout=240):
         for p in procs:
             if p.poll() is None:
                 p.kill()
-    for rc, _, e in outs:
+    for rc, o, e in outs:
         assert rc == 0, e[-3000:]
+        assert o == "", o[:300]  # stdout stays the command's (native libraries print on stderr)
     return outs
 
 
