@@ -58,7 +58,7 @@ def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, 
 def _options(p) -> None:
     p.add_argument("--steps", type=int_in(1, 200), default=8, help="touchdowns a trial must reach (default 8)")
     p.add_argument("--params", choices=["tuned", "paper"], default="tuned", help="controller gains (default tuned)")
-    p.add_argument("--max-speed-change", type=float_in(0.0, 0.95), default=0.6,
+    p.add_argument("--speed-change", type=float_in(0.0, 0.95), default=0.6,
                    help="largest relative change of the starting hip speed (default 0.6)")
     p.add_argument("--max-body", type=float_in(0.0, 45.0), default=10.0,
                    help="largest body pitch offset at the start, deg (default 10)")
@@ -66,7 +66,7 @@ def _options(p) -> None:
 
 
 def _build(args, progress):
-    return study(args.steps, args.params, args.max_speed_change, args.max_body, args.bins)
+    return study(args.steps, args.params, args.speed_change, args.max_body, args.bins)
 
 
 COMMAND = options.command(ROBOT, "survival of walking against start speed and posture perturbations",
