@@ -13,10 +13,12 @@ from bipedlab.cli import float_in, int_in
 from bipedlab.robustness import options
 
 ROBOT = "seven-link"
+CHUNK = 100  # samples per loop chunk between the checks whether the batch has stopped
 
 
 def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, max_body_deg: float = 10.0,
           bins: int = 6):
+    import jax
     import jax.numpy as jnp
 
     from bipedlab import robustness as rb
@@ -39,7 +41,10 @@ def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, 
         x0, _ = ss.initial_condition(r, ss.START_SPEED * (1.0 + q["speed_change"]))
         x0 = x0.at[2].add(jnp.deg2rad(q["body_offset"]))
         s0 = sl.initial_state(sc.initial_plant(r, x0, a0, nlog_c, settings), None, ctl.initial_state(x0))
-        s, _ = sl.run(loop, p, s0, settings.n_samples)
+        # chunks of the loop until every trial of the batch has stopped (steps reached or fallen),
+        # as the study's own simulate stops; the bound is the study's sample count
+        s = jax.lax.while_loop(lambda s: sc.running(settings, s.x) & (s.k < settings.n_samples),
+                               lambda s: sl.run(loop, p, s, CHUNK)[0], s0)
         pl = s.x
         reached = (pl.status == sc.OK) & (pl.ntd >= steps)
         status = jnp.where(reached, sl.OK, jnp.where(pl.status == sc.NONFINITE, sl.NONFINITE, sl.FELL))
