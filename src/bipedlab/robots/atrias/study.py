@@ -248,7 +248,8 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
                model_error=dict(st.model_error), seed=st.seed)
     if st.terrain in ROUGH_MODES:
         rec["step_height_m"] = st.step_height
-        rec["terrain_levels"] = level_stats(out["heights"], terr, float(np.max(out["x"])))
+        rec["terrain_levels"] = level_stats(out["heights"], terr, st.distance if not st.seconds
+                                            else float(np.max(out["x"])))
         if st.rough_grade_percent:
             rec["slope_percent"] = st.rough_grade_percent
     if st.terrain == "slope":
