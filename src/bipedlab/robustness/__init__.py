@@ -12,12 +12,17 @@ parameters. The engine (:func:`run`) does the rest::
                     completed=out.steps,   # int: steps (hops, strides) completed
                     speed=out.speed)       # any further per-trial scalars
 
+    axes = (rb.Axis("push", 0.0, 100.0, 8, "N"), rb.Axis("phase", 0.0, 1.0, 8))
     study = rb.Study(
-        name="my-robot pushes", trial=trial, horizon=10, unit="steps",
-        axes=(rb.Axis("push", 0.0, 100.0, 8, "N"), rb.Axis("phase", 0.0, 1.0, 8)),
-        sample=lambda rng, n: rb.uniform(rng, n, study_axes),  # {name: (n,) array}
+        name="my-robot pushes", trial=trial, horizon=10, unit="steps", axes=axes,
+        sample=lambda rng, n: rb.uniform(rng, n, axes),  # {name: (n,) array}
     )
-    rec = rb.run(study, trials=256, seed=0, out="atlas", progress=print)
+    rec = rb.run(study, trials=256, seed=0, out="atlas")   # progress bar on stderr
+    print(rb.summary(rec))
+
+A command is one line: ``COMMAND = options.command("my-robot", "help", build, add_options)``
+with ``build(args, progress) -> Study`` (see :mod:`bipedlab.robustness.options`), appended to
+the robot package's ``cli.COMMANDS``.
 
 Contract of ``trial(params) -> dict``: ``params`` is one trial's slice of what ``sample``
 returned (a dict of arrays); it must return at least ``status`` (int, see
