@@ -67,6 +67,10 @@ class Command:
     validate(args): optional check of the parsed options run before anything else (before
         the outputs are staged, before before_jax and run); raises UsageError on a combination
         that cannot mean anything. It should not import the study modules.
+    bench: short versions of the command for ``bipedlab bench --studies`` (the first-run
+        benchmark, :mod:`bipedlab.studybench`): a tuple of argument tuples appended to the
+        command's words, e.g. ``(("--steps", "3"),)``; an argument tuple starting with "long"
+        is run only when named.
     """
 
     verb: str
@@ -77,6 +81,7 @@ class Command:
     compile_cache: bool = True
     before_jax: Optional[Callable[[argparse.Namespace], None]] = None
     validate: Optional[Callable[[argparse.Namespace], None]] = None
+    bench: tuple = ()
 
     @property
     def name(self) -> str:

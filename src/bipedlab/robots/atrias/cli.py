@@ -88,7 +88,7 @@ def _run(args, progress):
 
 COMMANDS = [
     Command("run", "atrias", "spring-mass running embedded in the articulated ATRIAS-like biped on unobserved terrain",
-            _run_arguments, _run, validate=_run_validate),
+            _run_arguments, _run, validate=_run_validate, bench=(("--seconds", "2"),)),
 ]
 
 from bipedlab.robots.atrias.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)

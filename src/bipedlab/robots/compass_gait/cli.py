@@ -27,5 +27,5 @@ def _walk(args, progress):
 COMMANDS = [
     Command("walk", "compass-gait",
             "passive compass-gait walking down a slope: period-one gait, Poincaré eigenvalues, perturbed walk",
-            _walk_arguments, _walk),
+            _walk_arguments, _walk, bench=(("--steps", "10"),)),
 ]

@@ -27,16 +27,42 @@ def _bench_arguments(p) -> None:
     p.add_argument("--threads", type=int_in(1, 1024), default=None,
                    help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
     p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
+    p.add_argument("--studies", nargs="*", type=text, default=None, metavar="NAME",
+                   help="instead: the first-run benchmark of the studies (each study's short version from an "
+                        "empty compilation cache, then warm: compile and run seconds, compiled programs, peak "
+                        "memory); NAME selects studies by their leading words (default: all but the long ones)")
+    p.add_argument("--cold-only", action="store_true", help="--studies: skip the warm runs")
+    p.add_argument("--timeout", type=float_in(1.0, 86_400.0), default=None,
+                   help="--studies: seconds after which one study run is stopped and reported as failed")
+
+
+def _bench_validate(args) -> None:
+    if args.studies is not None:
+        from bipedlab import studybench
+
+        try:
+            studybench.select(args.studies, studybench.studies())
+        except ValueError as e:
+            raise UsageError(str(e)) from None
 
 
 def _bench_cores(args) -> None:
-    """Batched CPU rollouts use every core, as MuJoCo's do: set before JAX touches a device."""
+    """Batched CPU rollouts use every core, as MuJoCo's do: set before JAX touches a device
+    (not for --studies, whose studies run in their own processes with the user's settings)."""
+    if args.studies is not None:
+        return
     from bipedlab.sim import use_cpu_cores
 
     use_cpu_cores(args.threads)
 
 
 def _bench(args, progress):
+    if args.studies is not None:
+        from bipedlab import studybench
+
+        chosen = studybench.select(args.studies, studybench.studies())
+        return studybench.run(chosen, warm=not args.cold_only, timeout=args.timeout, progress=progress), \
+            studybench.summary
     from bipedlab.robots.five_link import bench
 
     rec = bench.run(args.batch, args.seconds, args.threads, not args.no_mujoco, progress=bench._eprint)
@@ -90,10 +116,11 @@ def _walk(args, progress):
 
 COMMANDS = [
     Command("bench", None, "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
-            _bench_arguments, _bench, compile_cache=False, before_jax=_bench_cores),
-    Command("optimize", ROBOT, "design a periodic HZD walking gait by optimisation", _optimize_arguments, _optimize),
+            _bench_arguments, _bench, compile_cache=False, before_jax=_bench_cores, validate=_bench_validate),
+    Command("optimize", ROBOT, "design a periodic HZD walking gait by optimisation", _optimize_arguments, _optimize,
+            bench=((),)),
     Command("walk", ROBOT, "closed-loop HZD walking on a designed gait, optionally from a perturbed state",
-            _walk_arguments, _walk, validate=_walk_validate),
+            _walk_arguments, _walk, validate=_walk_validate, bench=(("--steps", "10"),)),
 ]
 
 from bipedlab.robots.five_link.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)

@@ -194,14 +194,16 @@ def _identify(args, progress):
 
 
 COMMANDS = [
-    Command("optimize", ROBOT, "design a compliant-HZD walking gait by optimisation", _optimize_arguments, _optimize),
+    Command("optimize", ROBOT, "design a compliant-HZD walking gait by optimisation", _optimize_arguments, _optimize,
+            bench=(("--speed", "0.8"),)),
     Command("walk", ROBOT, "the experiments' closed loop: HZD walking on a designed gait, pushes, impact scaling, lean",
-            _walk_arguments, _walk, validate=_walk_validate),
+            _walk_arguments, _walk, validate=_walk_validate, bench=(("--steps", "3"),)),
     Command("experiment", ROBOT, "walking experiments: " + "|".join(EXPERIMENTS), _experiment_arguments, _experiment,
-            validate=_experiment_validate),
-    Command("hop", ROBOT, "two-legged hopping on the 13-DoF model, with Poincaré analysis", _hop_arguments, _hop),
+            validate=_experiment_validate, bench=(("long", "sweep"),)),
+    Command("hop", ROBOT, "two-legged hopping on the 13-DoF model, with Poincaré analysis", _hop_arguments, _hop,
+            bench=(("--hops", "5"),)),
     Command("identify", ROBOT, "system identification from synthetic experiments or logged data",
-            _identify_arguments, _identify, validate=_identify_validate),
+            _identify_arguments, _identify, validate=_identify_validate, bench=(("--synthetic", "--quick"),)),
 ]
 
 from bipedlab.robots.mabel.robustness import HOPPING as _HOPPING, WALKING as _WALKING  # noqa: E402  (no JAX at import)

@@ -44,9 +44,9 @@ def _experiment(args, progress):
 
 COMMANDS = [
     Command("walk", ROBOT, "nonkinematic walking: configuration-switched spring-damper control on rigid feet",
-            _walk_arguments, _walk),
+            _walk_arguments, _walk, bench=(("--steps", "5"),)),
     Command("experiment", ROBOT, "validation experiments: " + "|".join(EXPERIMENTS), _experiment_arguments,
-            _experiment),
+            _experiment, bench=(("free-swing",),)),
 ]
 
 from bipedlab.robots.seven_link.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)
