@@ -85,3 +85,19 @@ def test_hip_push_obeys_impulse_momentum():
     r = jnp.stack(frames(st.model, q).origin[hip]) - foot
     dL = mech.angular_momentum(st.model, q, qd1, foot) - mech.angular_momentum(st.model, q, qd0, foot)
     assert float(dL) == pytest.approx(float(r[0] * P[1] - r[1] * P[0]), abs=1e-11)
+
+
+@pytest.mark.slow
+def test_robustness_model_small_pushes_survive():
+    """The ``robustness model`` study on the shipped RABBIT gait: pushes of at most 0.25 N s at
+    the hip (under 0.01 m/s of the COM's 0.8 m/s) leave every trial walking its 3 steps back
+    towards the fixed point; pushes of 40 N s (1.25 m/s) end every walk."""
+    from bipedlab.robots.imported import robustness as rm
+    from bipedlab.robustness import engine
+
+    gait = str(resources.files("bipedlab.robots.imported").joinpath("data", "rabbit_0.8.json"))
+    small = engine.run(rm.study(RABBIT, gait, steps=3, push_max=0.25, bins=2, grid=True), 4, progress=False)
+    assert small["trials"] == 4 and small["survival_rate"] == 1.0
+    assert small["median_final_deviation"] < 0.05
+    large = engine.run(rm.study(RABBIT, gait, steps=3, push_max=80.0, bins=2, grid=True), 4, progress=False)
+    assert large["survival_rate"] == 0.0

@@ -1,8 +1,9 @@
 """RABBIT's HZD gait through the imported-model pipeline: the shipped 0.8 m/s gait (designed by
 ``bipedlab optimize model rabbit.xml``) against the published figures where they exist, its
-Poincaré eigenvalues against finite differences, one closed-loop step back to the fixed
-point; slow: the design from the default guess, and the five-link biped's exported MJCF
-reproducing the five-link study's gait to 1e-8.
+restricted map's eigenvalue against finite differences; slow: the full Poincaré map's
+eigenvalues against finite differences, one closed-loop step back to the fixed point, the
+design from the default guess, and the five-link biped's exported MJCF reproducing the
+five-link study's gait to 1e-8.
 
 Published figures used: RABBIT's specific mechanical cost of transport, 0.38 (quoted beside
 MABEL's, "approximately three times" MABEL's 0.14, in Sreenath et al. 2011), an upper bound
@@ -14,7 +15,6 @@ from __future__ import annotations
 from importlib import resources
 
 import jax
-import jax.numpy as jnp
 import numpy as np
 import pytest
 
@@ -47,6 +47,21 @@ def test_shipped_gait_against_published_figures(shipped):
     assert 0.0 < design["max_abs_eigenvalue"] < 1.0
 
 
+def test_restricted_eigenvalue_against_finite_differences(shipped):
+    """The short check: the restricted (zero-dynamics) map's derivative by autodiff against
+    central differences, at its fixed point, and against the design's recorded eigenvalue."""
+    s, vc, z, design = shipped
+    st = s.study.stance
+    thd = float(vc.c @ z[st.n:])
+    rmap = jax.jit(lambda t: gw.restricted_map(vc, st, t, nodes=s.study.nodes))
+    assert float(rmap(thd)) == pytest.approx(thd, abs=1e-8)
+    rho = gw.restricted_eigenvalue(vc, st, thd, nodes=s.study.nodes)
+    d = 1e-5
+    assert rho == pytest.approx((float(rmap(thd + d)) - float(rmap(thd - d))) / (2 * d), abs=1e-7)
+    assert rho == pytest.approx(design["restricted_eigenvalue"], abs=1e-12)
+    assert 0.0 < rho < 1.0
+
+
 @pytest.fixture(scope="module")
 def jacobians(shipped):
     s, vc, z, _ = shipped
@@ -56,6 +71,7 @@ def jacobians(shipped):
     return J, J_fd
 
 
+@pytest.mark.slow
 def test_poincare_eigenvalues_against_finite_differences(shipped, jacobians):
     J, J_fd = jacobians
     assert np.linalg.norm(J - J_fd) / np.linalg.norm(J_fd) < 1e-5
@@ -69,6 +85,7 @@ def test_poincare_eigenvalues_against_finite_differences(shipped, jacobians):
     assert design["max_abs_eigenvalue"] == pytest.approx(ev[0], rel=1e-6)
 
 
+@pytest.mark.slow
 def test_one_closed_loop_step_returns_to_the_fixed_point(shipped):
     s, vc, z, design = shipped
     st = s.study.stance
