@@ -296,6 +296,9 @@ def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
 
 def summary(rec: dict) -> str:
     lines = [f"ATRIAS-like biped running, terrain {rec['terrain']}, energy {rec['energy']}"]
+    if rec.get("delay_ms"):
+        lines.append(f"  delay {rec['delay_ms']:g} ms, " + ("known to the controller (--delay-compensation)"
+                                                           if rec["delay_compensation"] else "unknown to the controller"))
     if "trials" in rec:
         lines.append(f"  trials {rec['trials']}: success {100 * rec['success_rate']:.1f} %, wall {rec['wall_s']:.1f} s")
     else:
@@ -306,6 +309,10 @@ def summary(rec: dict) -> str:
         lines.append(f"  steady state (last 10 apexes): apex height error {100 * rec['apex_height_error_steady_m']:+.1f} cm,"
                      f" speed error {100 * rec['speed_error_steady_mps']:+.1f} cm/s")
     lines.append(f"  trunk pitch rms error {rec['trunk_pitch_rms_deg']:.2f} deg over {rec['apexes']} apexes")
+    if "terrain_levels" in rec:
+        lv = rec["terrain_levels"]
+        lines.append(f"  terrain levels: s.d. {100 * lv['level_sd_m']:.1f} cm, largest change {100 * lv['level_change_max_m']:.1f} cm"
+                     f" ({lv['levels_per_run']} levels a run)")
     s = rec["slip_model"]
     lines.append(f"  spring-mass model: success {100 * s['success_rate']:.0f} %, apex s.d. {100 * s['apex_height_sd_m']:.1f} cm,"
                  f" speed s.d. {100 * s['speed_sd_mps']:.1f} cm/s")
