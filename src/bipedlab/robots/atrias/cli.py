@@ -82,7 +82,8 @@ def _run(args, progress):
         slope=1.0 if args.slope is None else float(args.slope), seconds=args.seconds,
         rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain.startswith("rough")) else 0.0,
         distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
-        delay_ms=float(args.delay_ms), delay_compensation=bool(args.delay_compensation), model_error=errs, energy=args.energy, trials=args.trials, seed=int(args.seed))
+        delay_ms=float(args.delay_ms), delay_compensation=bool(args.delay_compensation), model_error=errs,
+        energy=args.energy, trials=args.trials, seed=int(args.seed))
     return run_atrias.study(st, out_dir=args.out, progress=run_atrias.progress_bar), run_atrias.summary
 
 
