@@ -91,7 +91,7 @@ def test_hip_push_obeys_impulse_momentum():
 def test_robustness_model_small_pushes_survive():
     """The ``robustness model`` study on the shipped RABBIT gait: pushes of at most 0.25 N s at
     the hip (under 0.01 m/s of the COM's 0.8 m/s) leave every trial walking its 3 steps back
-    towards the fixed point; pushes of 40 N s (1.25 m/s) end every walk."""
+    towards the fixed point."""
     from bipedlab.robots.imported import robustness as rm
     from bipedlab.robustness import engine
 
@@ -99,5 +99,6 @@ def test_robustness_model_small_pushes_survive():
     small = engine.run(rm.study(RABBIT, gait, steps=3, push_max=0.25, bins=2, grid=True), 4, progress=False)
     assert small["trials"] == 4 and small["survival_rate"] == 1.0
     assert small["median_final_deviation"] < 0.05
-    large = engine.run(rm.study(RABBIT, gait, steps=3, push_max=80.0, bins=2, grid=True), 4, progress=False)
-    assert large["survival_rate"] == 0.0
+    # 30 N s (0.94 m/s of the COM's speed): backwards the robot falls, forwards it walks on
+    large = engine.run(rm.study(RABBIT, gait, steps=3, push_max=60.0, bins=2, grid=True), 4, progress=False)
+    assert large["survival_map"] == [[0.0, 0.0], [1.0, 1.0]]

@@ -37,7 +37,7 @@ def push(st, hip_body: int, z, impulse):
     return reduce(q, qd + a - MiJs @ lam)
 
 
-def study(path, gait, steps: int = 10, controller: str = "iolin", push_max: float = 8.0, bins: int = 8,
+def study(path, gait, steps: int = 10, controller: str = "iolin", push_max: float = 40.0, bins: int = 8,
           grid: bool = False, plane: str = "xz"):
     """The push-robustness :class:`bipedlab.robustness.Study` of a gait of ``optimize model``."""
     import jax.numpy as jnp
@@ -86,8 +86,8 @@ def _options(p) -> None:
                    help="the sagittal plane as (forward axis, up axis) of the file's world (default xz)")
     p.add_argument("--steps", type=int_in(1, 1000), default=10, help="steps a trial must walk (default 10)")
     p.add_argument("--controller", choices=["iolin", "pd"], default="iolin", help="iolin | pd (default iolin)")
-    p.add_argument("--push", type=float_in(0.1, 1000.0), default=8.0,
-                   help="largest impulse of each axis, N s (default 8)")
+    p.add_argument("--push", type=float_in(0.1, 1000.0), default=40.0,
+                   help="largest impulse of each axis, N s (default 40)")
     p.add_argument("--bins", type=int_in(2, 100), default=8, help="cells per axis of the survival map (default 8)")
     p.add_argument("--grid", action="store_true", help="trials on the map's cell centres instead of uniform draws")
 
