@@ -91,6 +91,44 @@ def bipedlab_batched(seconds: float, batch: int):
     )
 
 
+def flops_per_substep() -> dict:
+    """Floating-point operations of one RK4 substep of the scenario (four evaluations of the
+    flow: dynamics with contacts, under a held PD torque), as XLA's cost analysis of the
+    compiled substep counts them (adds, multiplies, divides, compares of the optimised
+    program; sines and cosines counted apart as transcendentals)."""
+    from bipedlab.sim import integrators
+
+    params, x0, spec = _scenario(0.01)
+    u = scenarios.pd_policy(params, x0, 0)
+    step = integrators.get(spec.integrator)
+    c = jax.jit(lambda p, x, u: step(lambda x, u: scenarios.flow(p, x, u), x, u, spec.dt)).lower(params, x0, u).compile()
+    cost = c.cost_analysis()
+    cost = cost[0] if isinstance(cost, (list, tuple)) else cost
+    return dict(flops=float(cost.get("flops", float("nan"))), transcendentals=float(cost.get("transcendentals", 0.0)))
+
+
+def cpu_peak_flops(cores: int) -> dict:
+    """Double-precision peak of this CPU from /proc/cpuinfo: cores x clock x flops per cycle,
+    with 2 fused-multiply-add units per core of the widest vector the flags show (AVX-512: 8
+    doubles, 32 flops/cycle; AVX2 + FMA: 4 doubles, 16; otherwise SSE2: 2 doubles, add and
+    multiply, 4). The clock is the highest 'cpu MHz' listed (the running clock, not a turbo
+    bin). A ceiling to compare with, not a promise: the dynamics are mostly scalar code."""
+    mhz, flags = 0.0, set()
+    try:
+        with open("/proc/cpuinfo") as f:
+            for line in f:
+                if line.startswith("cpu MHz"):
+                    mhz = max(mhz, float(line.split(":")[1]))
+                elif line.startswith("flags") and not flags:
+                    flags = set(line.split(":")[1].split())
+    except (OSError, ValueError):
+        return dict(peak_flops=None, note="no /proc/cpuinfo")
+    per_cycle = 32 if "avx512f" in flags else 16 if {"avx2", "fma"} <= flags else 4
+    isa = "AVX-512" if per_cycle == 32 else "AVX2+FMA" if per_cycle == 16 else "SSE2"
+    return dict(peak_flops=cores * mhz * 1e6 * per_cycle if mhz else None, clock_mhz=mhz, flops_per_cycle=per_cycle,
+                isa=isa, cores=cores)
+
+
 #: Collision capsules of the anchors' MuJoCo model: (end in the body frame, radius).
 ANCHOR_CAPSULES = {
     "torso": ((0.0, five_link.TORSO["length"]), 0.05),
@@ -181,6 +219,10 @@ def run(batches: Sequence[int] = (64, 256), seconds: float = 2.0, threads: int |
         except ImportError:
             say("MuJoCo is not installed: pip install 'bipedlab[bench]' to compare")
     b64 = next(r for r in batched if r["batch"] == MUJOCO_BATCH)
+    work = flops_per_substep()
+    peak = cpu_peak_flops(threads) if dev.platform == "cpu" else dict(peak_flops=None)
+    ceiling = peak["peak_flops"] / work["flops"] if peak.get("peak_flops") and work["flops"] > 0 else None
+    best = max(r["substeps_per_s"] for r in batched)
     return dict(
         scenario="five-link standing under PD, penalty ground, RK4 0.25 ms, 1 kHz control",
         seconds_per_rollout=seconds,
@@ -202,6 +244,12 @@ def run(batches: Sequence[int] = (64, 256), seconds: float = 2.0, threads: int |
         batched_ratio_vs_mujoco_point_feet=b64["substeps_per_s"] / mjp["batched_substeps_per_s"] if mjp else None,
         batched=batched,
         final_hip_height_m=single["final_hip_height_m"],
+        flops_per_substep=work["flops"],
+        transcendentals_per_substep=work["transcendentals"],
+        cpu_peak=peak,
+        ceiling_substeps_per_s=ceiling,
+        single_fraction_of_ceiling=single["substeps_per_s"] / ceiling if ceiling else None,
+        batched_fraction_of_ceiling=best / ceiling if ceiling else None,
     )
 
 
@@ -237,6 +285,13 @@ def summary(r: dict) -> str:
                      f"(anchor model), {r['batched_ratio_vs_mujoco_point_feet']:.2f}x (point-feet model)")
     else:
         lines.append("MuJoCo not run: no ratios")
+    if r.get("ceiling_substeps_per_s"):
+        pk = r["cpu_peak"]
+        lines.append(f"ceiling: {r['flops_per_substep']:,.0f} flops per substep (XLA cost analysis) against "
+                     f"{pk['peak_flops'] / 1e9:.0f} GFLOP/s ({pk['cores']} cores x {pk['clock_mhz']:.0f} MHz x "
+                     f"{pk['flops_per_cycle']} ({pk['isa']})) = {r['ceiling_substeps_per_s']:,.0f} substeps/s; "
+                     f"single {100 * r['single_fraction_of_ceiling']:.1f} %, best batch "
+                     f"{100 * r['batched_fraction_of_ceiling']:.1f} % of it")
     return "\n".join(lines)
 
 
