@@ -142,6 +142,7 @@ def test_bench_simulates_the_scenario(bench_records):
 
 import importlib  # noqa: E402
 import pathlib  # noqa: E402
+import re  # noqa: E402
 import types  # noqa: E402
 
 from bipedlab import cli  # noqa: E402
