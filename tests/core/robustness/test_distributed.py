@@ -45,9 +45,9 @@ def launch(args_per_process, timeout=240):
 def test_two_processes_equal_one_process(tmp_path):
     one, two = tmp_path / "one", tmp_path / "two"
     trials, seed = 30, 7
-    launch([[SCRIPT, str(one), str(trials), str(seed)]])
-    port = free_port()
-    launch([[SCRIPT, str(two), str(trials), str(seed), f"127.0.0.1:{port}", "2", str(i)] for i in (0, 1)])
+    port = free_port()  # the one-process run and the two processes at once
+    launch([[SCRIPT, str(one), str(trials), str(seed)]]
+           + [[SCRIPT, str(two), str(trials), str(seed), f"127.0.0.1:{port}", "2", str(i)] for i in (0, 1)])
     r1 = json.loads((one / "record.json").read_text())
     r2 = json.loads((two / "record.json").read_text())
     assert (r1["processes"], r1["devices"]) == (1, 2)
