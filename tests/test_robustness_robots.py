@@ -44,8 +44,10 @@ def test_mabel_walking_zero_push_is_the_nominal_walk_and_a_mid_step_push_is_walk
     from bipedlab.robots.mabel.walking import study as ws
     from bipedlab.sim import loop as sl
 
+    # exact sensing: with the 14-bit encoders a roundoff-level difference between two compiled
+    # programs can flip one count and the walks then differ by millimetres (seen: 8 mm in 3.2 m)
     steps, force = 4, 30.0
-    study = walking_study(steps=steps, controller="decentralized")
+    study = walking_study(steps=steps, controller="decentralized", sensing="ideal")
     rec, o = _run(study, dict(push_force=[0.0, 0.0, force], push_phase=[0.5, 0.2, 0.5]), tmp_path)
     vc, gains, grec = ws.load_gait("nominal")
     m = wk.walking_model()
@@ -53,9 +55,9 @@ def test_mabel_walking_zero_push_is_the_nominal_walk_and_a_mid_step_push_is_walk
     z0 = jnp.asarray(grec["z_plus"], float)
     ref = jax.jit(lambda setup: sl.run(sw.closed_loop(m, "decentralized"), setup, sw.initial_state(setup, z0), n)[0])
     for i, push in ((0, (0.0, -1)), (2, (force, 2))):
-        s = ref(ws.setup_for(vc, gains, grec["design"]["period"], push=push))
+        s = ref(ws.setup_for(vc, gains, grec["design"]["period"], push=push, sensing="ideal"))
         assert int(s.status) == o["status"][i] and int(s.x.step) == o["touchdowns"][i]
-        assert float(s.x.distance) == pytest.approx(o["distance_m"][i], abs=1e-12)
+        assert float(s.x.distance) == pytest.approx(o["distance_m"][i], abs=1e-7)
     # a zero push is no push, whenever it starts
     assert o["touchdowns"][0] == o["touchdowns"][1] and o["distance_m"][0] == o["distance_m"][1]
     assert o["survived"][0] and o["touchdowns"][0] >= steps
