@@ -22,6 +22,7 @@ forward mode) and the NLP is solved by SciPy's SLSQP.
 """
 from __future__ import annotations
 
+import collections
 import dataclasses
 import time
 
@@ -193,14 +194,45 @@ def evaluate(prob: GaitProblem, x):
     return cost, eq, ineq, metrics
 
 
-def _scalar_problem(prob: GaitProblem, cost_scale: float):
-    def vec(x):
-        cost, eq, ineq, _ = evaluate(prob, x)
-        return jnp.concatenate([(cost / cost_scale)[None], eq, ineq])
+#: compiled functions of the most recent problems (a sweep builds many; each holds a program)
+_COMPILED: "collections.OrderedDict" = collections.OrderedDict()
+_COMPILED_KEEP = 8
 
-    f = jax.jit(vec)
-    jf = jax.jit(jax.jacfwd(vec))
-    return f, jf
+
+def _compiled(prob: GaitProblem, kind: str, make):
+    key = (id(prob), kind)
+    hit = _COMPILED.get(key)
+    if hit is None or hit[0] is not prob:
+        hit = _COMPILED[key] = (prob, make())
+        while len(_COMPILED) > _COMPILED_KEEP * 2:
+            _COMPILED.popitem(last=False)
+    _COMPILED.move_to_end(key)
+    return hit[1]
+
+
+def evaluator(prob: GaitProblem):
+    """``jit(evaluate(prob, .))``, compiled once per problem: the solver's values, its scale
+    and the final metrics all come from this one program (each separate ``jit`` of the same
+    evaluation would compile the whole zero-dynamics integration again)."""
+    return _compiled(prob, "evaluate", lambda: jax.jit(lambda x: evaluate(prob, x)))
+
+
+def _scalar_problem(prob: GaitProblem, cost_scale: float):
+    """(values, Jacobian) of [cost / cost_scale, eq, ineq]: the values from :func:`evaluator`,
+    the Jacobian by forward mode (``cost_scale`` a traced argument, so a new scale does not
+    compile again)."""
+    ev = evaluator(prob)
+
+    def f(x):
+        cost, eq, ineq, _ = ev(x)
+        return np.concatenate([[float(cost) / cost_scale], np.asarray(eq), np.asarray(ineq)])
+
+    def vec(x, scale):
+        cost, eq, ineq, _ = evaluate(prob, x)
+        return jnp.concatenate([(cost / scale)[None], eq, ineq])
+
+    jac = _compiled(prob, "jacobian", lambda: jax.jit(jax.jacfwd(vec)))
+    return f, lambda x: jac(x, jnp.asarray(cost_scale, float))
 
 
 @dataclasses.dataclass
@@ -221,7 +253,7 @@ def solve(prob: GaitProblem, x0, tol: float = 1e-10, maxiter: int = 300, warm_st
     the compiled functions (what a sweep or a re-design costs)."""
     x0 = np.asarray(x0, float)
     t0 = time.perf_counter()
-    cost0 = float(jax.jit(lambda x: evaluate(prob, x)[0])(jnp.asarray(x0)))
+    cost0 = float(evaluator(prob)(jnp.asarray(x0))[0])
     f, jf = _scalar_problem(prob, max(abs(cost0), 1e-9))
     ne = 3
 

@@ -84,7 +84,7 @@ def design(study: HZDStudy, prob: go.GaitProblem, x0, controller: str = "iolin",
     cost = prob.cost if cost is None else cost
     say(f"optimising a {prob.speed:g} m/s gait ({cost} cost), compiling first")
     res = go.solve(prob, x0, tol=study.tol)
-    c, eq, ineq, met = jax.jit(lambda x: go.evaluate(prob, x))(jnp.asarray(res.x))
+    c, eq, ineq, met = go.evaluator(prob)(jnp.asarray(res.x))
     vc, z_minus = met["vc"], met["z_minus"]
     say("Poincaré analysis")
     pc = poincare(study, vc, z_minus, controller)
