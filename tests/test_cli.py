@@ -177,8 +177,20 @@ def _options(p) -> set:
 
 
 def _positionals(p) -> list:
-    """A valid value for each positional argument of a command (its first choice)."""
-    return [a.choices[0] for a in p._actions if not a.option_strings and a.choices and a.dest != "help"]
+    """A valid value for each positional argument of a command (its first choice, or a shipped
+    example file), then each required option with a value (parsing reports a missing required
+    option before an unknown one)."""
+    out = []
+    for a in p._actions:
+        if not a.option_strings and a.dest != "help":
+            if a.choices:
+                out.append(a.choices[0])
+            elif a.nargs not in ("*", "?"):
+                out.append("rabbit.xml")
+    for a in p._actions:
+        if a.option_strings and a.required:
+            out += [a.option_strings[0], "x"]
+    return out
 
 
 def test_an_option_of_one_robot_is_refused_by_another(capsys):

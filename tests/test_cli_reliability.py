@@ -9,6 +9,7 @@ from __future__ import annotations
 import argparse
 import ast
 import contextlib
+import importlib.resources
 import importlib
 import io
 import json
@@ -41,14 +42,41 @@ CONTEXT = {
     ("walk mabel", "--lean-steps"): ["--lean", "5"],
     ("experiment mabel", "--steps"): [],
 }
+for _name in PARSERS:  # a multi-process launch names its coordinator and its place
+    if _name.startswith("robustness "):
+        CONTEXT[(_name, "--num-processes")] = ["--coordinator", "localhost:1", "--process-id", "0"]
+        CONTEXT[(_name, "--process-id")] = ["--coordinator", "localhost:1", "--num-processes", "65536"]
 
 
-def _base(name: str, option: str | None = None) -> list:
-    """The smallest valid argv of a command (its first positional choice, the first option of
-    a required group unless ``option`` belongs to that group)."""
+#: a valid value of a positional argument without choices, and of a required option
+POSITIONAL_VALUES = {"file": "rabbit.xml"}  # a shipped example of the imported-model commands
+REQUIRED_VALUES = {
+    "--gait": str(importlib.resources.files("bipedlab.robots.imported") / "data" / "rabbit_0.8.json"),
+    "--stance": "left_foot",
+    "--swing": "right_foot",
+}
+
+
+def _positional_value(a, omit: str | None):
+    if a.dest == omit:
+        return []
+    if a.choices:
+        return [a.choices[0]]
+    return [] if a.nargs in ("*", "?") else [POSITIONAL_VALUES[a.dest]]
+
+
+def _base(name: str, option: str | None = None, omit_positional: str | None = None) -> list:
+    """The smallest valid argv of a command (its first positional choice or a valid file, the
+    required options, the first option of a required group unless ``option`` belongs to that
+    group); ``omit_positional`` leaves that positional out (to give it a value of one's own)."""
     p = PARSERS[name]
     argv = name.split()
-    argv += [a.choices[0] for a in p._actions if not a.option_strings and a.choices and a.dest != "help"]
+    for a in p._actions:
+        if not a.option_strings and a.dest != "help":
+            argv += _positional_value(a, omit_positional)
+    for a in p._actions:
+        if a.option_strings and a.required and a.option_strings[0] != option:
+            argv += [a.option_strings[0], REQUIRED_VALUES[a.option_strings[0]]]
     for g in p._mutually_exclusive_groups:
         if g.required and option not in {s for a in g._group_actions for s in a.option_strings}:
             argv.append(g._group_actions[0].option_strings[0])
@@ -65,8 +93,10 @@ def _ranged():
 
 
 def _texts():
-    return [(name, a.option_strings[0], a) for name, p in sorted(PARSERS.items()) for a in p._actions
-            if a.type is cli.text]
+    """(command, option, action) of every string option; positional strings as (command, None,
+    action)."""
+    return [(name, a.option_strings[0] if a.option_strings else None, a) for name, p in sorted(PARSERS.items())
+            for a in p._actions if a.type is cli.text]
 
 
 RANGED = _ranged()
@@ -126,8 +156,13 @@ def test_every_numeric_option_has_a_range_stated_in_its_help():
 
 def test_every_string_option_refuses_the_empty_string():
     assert len(TEXTS) >= 10
-    for name, opt, _ in TEXTS:
+    for name, opt, action in TEXTS:
         for value in ("", "   "):
+            if opt is None:  # a positional: its own value in its place
+                argv = _base(name, omit_positional=action.dest)
+                line = _refused(argv[:len(name.split())] + [value] + argv[len(name.split()):])
+                assert f"argument {action.metavar or action.dest}" in line and "non-empty" in line, line
+                continue
             line = _refused(_base(name, opt) + [f"{opt}={value}"])
             assert f"argument {opt}" in line and "non-empty" in line, line
 
@@ -185,7 +220,7 @@ def _text_property(n: int):
     @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
     @given(data=st.data())
     def check(data):
-        name, opt, _ = data.draw(st.sampled_from(TEXTS), label="option")
+        name, opt, _ = data.draw(st.sampled_from([t for t in TEXTS if t[1] is not None]), label="option")
         value = data.draw(st.one_of(st.text(max_size=20), st.sampled_from(["", " ", "\t", ".", "/", "nominal"])),
                           label="value")
         argv = _base(name, opt) + [f"{opt}={value}"]

@@ -102,7 +102,7 @@ def child(stats_path: str, argv: list[str]) -> int:
 
     monitoring.register_event_duration_secs_listener(on_duration)
     monitoring.register_event_listener(on_event)
-    from bipedlab import cli
+    from bipedlab import cli, outputs
 
     t_import = time.perf_counter() - t0
     with open(os.devnull, "w") as sink:
@@ -123,7 +123,7 @@ def child(stats_path: str, argv: list[str]) -> int:
         jax_version=jax.__version__,
     )
     with open(stats_path, "w") as f:
-        json.dump(rec, f)
+        outputs.dump_json(rec, f)
     return code
 
 

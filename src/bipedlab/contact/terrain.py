@@ -28,8 +28,7 @@ level s.d. near 9.5 cm. The text alone does not give that: the two literal readi
 ("each level within +-H", 14.4 cm, mode ``"level"``; "changes uniform in +-H", an unbounded
 walk, mode ``"walk"``). The measured spread of both readings is in the running study's report.
 
-Mode ``"bounded"`` (the former default, ``--terrain rough-reflected`` in ``bipedlab run
-atrias``): changes uniform in [-H, H], a change that would take the level outside [-H, H]
+Mode ``"bounded"`` (the former default, the running study's ``--terrain rough-reflected``): changes uniform in [-H, H], a change that would take the level outside [-H, H]
 reversed; its level s.d. is 0.117-0.127 m over 60 m, and the spring-mass speed s.d. on it
 30-45 % above the paper's.
 """
