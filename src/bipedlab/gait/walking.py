@@ -126,6 +126,18 @@ def walk(vc, st: Stance, ctrl: Controller, z_minus, steps: int, h: float = 1e-3,
     return out
 
 
+def outcome(w: Step, z_star) -> dict:
+    """A walk's outcome for a robustness trial: the last step's status, the steps completed,
+    the distance from the fixed point z_star at the last completed touchdown (NaN when none
+    completed) and the distance walked, m."""
+    ok = w.status == OK
+    done = jnp.sum(ok)
+    last = jnp.where(done > 0, done - 1, 0)
+    return dict(status=w.status[-1], completed=done,
+                final_deviation=jnp.where(done > 0, jnp.linalg.norm(w.z_minus[last] - z_star), jnp.nan),
+                distance_m=jnp.sum(jnp.where(ok, w.step_length, 0.0)))
+
+
 def poincare_jacobian(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3) -> jax.Array:
     """d P / d z- at z- by forward-mode autodiff through the hybrid flow."""
     return jax.jacfwd(lambda z: step(vc, st, ctrl, z, h).z_minus)(z_minus)

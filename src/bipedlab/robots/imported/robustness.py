@@ -57,13 +57,7 @@ def study(path, gait, steps: int = 10, controller: str = "iolin", push_max: floa
 
     def trial(p):
         z0 = push(st, hip, zs, jnp.stack([p["push_x"], p["push_y"]]))
-        w = gw.walk(vc, st, ctrl, z0, steps)
-        ok = w.status == 0
-        done = jnp.sum(ok)
-        last = jnp.where(done > 0, done - 1, 0)
-        return dict(status=w.status[-1], completed=done,
-                    final_deviation=jnp.where(done > 0, jnp.linalg.norm(w.z_minus[last] - zs), jnp.nan),
-                    distance_m=jnp.sum(jnp.where(ok, w.step_length, 0.0)))
+        return gw.outcome(gw.walk(vc, st, ctrl, z0, steps), zs)
 
     def sample(rng, k):
         return rb.grid(k, ax) if grid else rb.uniform(rng, k, ax)
