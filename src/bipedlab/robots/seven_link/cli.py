@@ -19,6 +19,10 @@ def _walk_arguments(p) -> None:
     p.add_argument("--params", choices=["paper", "tuned"], default=None,
                    help="the controller's Table II parameters as published, or retuned for the planar model "
                         "(default tuned)")
+    p.add_argument("--setup", choices=["planar", "boom"], default=None,
+                   help="the plant: the planar model, or the experimental setup (the 1.6 m boom's inertia, turning "
+                        "the feet on the ground, Coulomb drive friction identified from Fig. 6, the knee lock "
+                        "torque of Fig. 8) (default planar)")
     _out(p)
 
 
@@ -26,7 +30,8 @@ def _walk(args, progress):
     from bipedlab.robots.seven_link import study as walk_seven_link
 
     rec = walk_seven_link.walk(args.steps if args.steps is not None else 30,
-                               args.params if args.params is not None else "tuned", out=args.out, progress=progress)
+                               args.params if args.params is not None else "tuned", out=args.out, progress=progress,
+                               setup=args.setup if args.setup is not None else "planar")
     return rec, walk_seven_link.summary_walk
 
 

@@ -104,13 +104,45 @@ def applied_forces(r: sl.SevenLink, q, qd, u, h) -> jax.Array:
     return sl.actuation(u) + sl.damping_force(r, qd) - h
 
 
+#: Rows of the normal contact forces (the heights of the four contact points).
+_NORMAL_ROWS = np.concatenate([np.ones(4), np.zeros(6)])
+
+
+def turn_drag_direction(r: sl.SevenLink, qd) -> jax.Array:
+    """(9,) the generalised force per newton of total normal foot force of the setup's
+    foot-turning loss: ``-turn_drag tanh(x_dot / turn_rate)`` on the hip's x (zero for the
+    planar model)."""
+    if r.setup is None:
+        return jnp.zeros(9)
+    s = r.setup
+    return jnp.zeros(9).at[0].set(-s.turn_drag * jnp.tanh(qd[0] / s.turn_rate))
+
+
+def accelerations_with_drag(M, f, A, a_bias, mask, d):
+    """(qdd, lambda) of ``M qdd = f + A^T lambda + d (n . lambda)`` with ``A qdd = -a_bias``
+    on the active rows, n selecting the normal rows: a force d per newton of total normal
+    force, solved exactly with the constraint forces (one non-symmetric KKT system)."""
+    n = M.shape[0]
+    Am = A * mask[:, None]
+    G = Am.T + d[:, None] * (jnp.asarray(_NORMAL_ROWS) * mask)[None, :]
+    K = jnp.block([[M, -G], [Am, jnp.diag(1.0 - mask)]])
+    sol = jnp.linalg.solve(K, jnp.concatenate([f, -a_bias * mask]))
+    return sol[:n], sol[n:] * mask
+
+
 def solve(r: sl.SevenLink, x, u, active, gap_acc: bool = False):
     """(qdd, lambda rows (10,)) of the constrained motion under input u; with gap_acc also
-    the elements' gap accelerations (6,)."""
+    the elements' gap accelerations (6,). With a setup (:class:`~bipedlab.robots.seven_link.robot.Setup`)
+    the foot-turning loss acts in proportion to the normal forces
+    (:func:`accelerations_with_drag`)."""
     q, qd = x[:9], x[9:]
     M, h, P, V, J, Jd = sl.dynamics_terms(r, q, qd)
     A, ab = constraint_jacobian(J, Jd)
-    qdd, lam = aset.accelerations(M, applied_forces(r, q, qd, u, h), A, ab, row_mask(active))
+    if r.setup is None:
+        qdd, lam = aset.accelerations(M, applied_forces(r, q, qd, u, h), A, ab, row_mask(active))
+    else:
+        qdd, lam = accelerations_with_drag(M, applied_forces(r, q, qd, u, h), A, ab, row_mask(active),
+                                           turn_drag_direction(r, qd))
     if not gap_acc:
         return qdd, lam
     return qdd, lam, element_forces(A @ qdd + ab)
@@ -470,8 +502,11 @@ def plant_sample(r: sl.SevenLink, S: Settings, c: Plant, u, ctrl_log) -> Plant:
                      n_log=jnp.where(do_log, li + 1, c.n_log), **rec)
 
 
-def closed_loop(r: sl.SevenLink, policy: Callable, settings: Settings, log_fn: Callable) -> SampledLoop:
-    """The walk as a :class:`bipedlab.sim.loop.SampledLoop` over ``params = policy params``:
+def closed_loop(r: sl.SevenLink, policy: Callable, settings: Settings, log_fn: Callable,
+                robot_of: Callable | None = None) -> SampledLoop:
+    """The walk as a :class:`bipedlab.sim.loop.SampledLoop` over ``params = policy params``
+    (with ``robot_of``, the plant's robot is ``robot_of(params)`` instead of r, so plants of
+    one structure share the compiled program):
     the sensor hands the controller the plant (exact state and contact switches; the
     Section V-A estimation is the policy's), the controller runs ``policy(params, cstate, t,
     x, active) -> (u, cstate)`` and hands the plant (u, ``log_fn(cstate)``); the plant step is
@@ -489,8 +524,10 @@ def closed_loop(r: sl.SevenLink, policy: Callable, settings: Settings, log_fn: C
 
         return jax.lax.cond(running(S, pl), go, hold, None)
 
+    robot = (lambda p: r) if robot_of is None else robot_of
+
     def plant_step(p, pl, u, d, h, t):
-        return jax.lax.cond(running(S, pl), lambda _: plant_sample(r, S, pl, *u), lambda _: pl, None)
+        return jax.lax.cond(running(S, pl), lambda _: plant_sample(robot(p), S, pl, *u), lambda _: pl, None)
 
     return SampledLoop(plant_step=plant_step, sensor=lambda p, s, pl, t: (s, pl), controller=controller,
                        fell=lambda p, pl0, y, u, pl: pl.status != OK, sample_time=S.sample)

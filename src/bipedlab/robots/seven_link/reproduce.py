@@ -1,6 +1,6 @@
 """The seven-link paper (Braun, Mitchell & Goldfarb) in ``bipedlab reproduce``: the walking
-gait (Sec. IV, Figs. 8-9), the free-swing experiments (Fig. 6) and the low-gain PD experiment
-(Fig. 7), through :mod:`bipedlab.robots.seven_link.study`. Paper values:
+gait (Sec. IV, Figs. 8-9; Table II also on the boom setup), the free-swing experiments
+(Fig. 6) and the low-gain PD experiment (Fig. 7), through :mod:`bipedlab.robots.seven_link.study`. Paper values:
 ``data/paper_seven_link.json``."""
 from __future__ import annotations
 
@@ -15,7 +15,7 @@ WALK_STEPS, QUICK_WALK_STEPS = 30, 10
 def _walk(args, out, progress):
     from bipedlab.robots.seven_link import study
 
-    return study.walk(args["steps"], args["params"], out=out, progress=progress)
+    return study.walk(args["steps"], args["params"], out=out, progress=progress, setup=args.get("setup", "planar"))
 
 
 def _free_swing(args, out, progress):
@@ -38,6 +38,9 @@ EXPERIMENTS = (
     Experiment("walk-table-ii", f"bipedlab walk seven-link --steps {WALK_STEPS} --params paper", _walk,
                dict(steps=WALK_STEPS, params="paper"), None, expected_s=200,
                skip_reason="not run in --quick (a second walk, compiled again)"),
+    Experiment("walk-table-ii-boom", f"bipedlab walk seven-link --steps {WALK_STEPS} --params paper --setup boom",
+               _walk, dict(steps=WALK_STEPS, params="paper", setup="boom"), None, expected_s=260,
+               skip_reason="not run in --quick (the boom plant is a third walk program, compiled again)"),
     Experiment("free-swing", "bipedlab experiment seven-link free-swing", _free_swing, dict(duration_s=6.0),
                dict(duration_s=6.0), reduction="as in the full run", expected_s=20, quick_expected_s=20),
     Experiment("low-gain-pd", "bipedlab experiment seven-link low-gain-pd", _low_gain_pd, dict(duration_s=8.0),
@@ -56,6 +59,9 @@ def measure(records: dict, quick: bool) -> dict:
     for key in ("speed_mps", "step_length_m", "step_frequency_hz", "cmt"):
         out[f"walk_{key}"] = dig(w, key) if w else Skip("not run")
     out["walk_table_ii_speed_mps"] = dig(p, "speed_mps") if p else Skip("not run in --quick" if quick else "not run")
+    b = records.get("walk-table-ii-boom")
+    for key in ("speed_mps", "step_length_m", "step_frequency_hz", "cmt"):
+        out[f"walk_table_ii_boom_{key}"] = dig(b, key) if b else Skip("not run in --quick" if quick else "not run")
     hip, knee = dig(fs, "joints", "hip", default={}), dig(fs, "joints", "knee", default={})
     out["free_swing_hip_half_cycles"] = dig(hip, "21:1 (Table I)", "half_cycles")
     out["free_swing_knee_half_cycles"] = dig(knee, "12:1 (Table I)", "half_cycles")

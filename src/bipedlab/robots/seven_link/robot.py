@@ -99,14 +99,38 @@ E = JOINT_MAP.T.copy()
 
 
 @pytree
+class Setup:
+    """What the experimental setup adds to the planar model (built and sourced in
+    :mod:`bipedlab.robots.seven_link.setup`): mass_x, mass_y (kg) added to the hip's
+    horizontal and vertical inertia (the boom reflected into the plane), load_y (N) of the
+    boom's weight resting on the hip, coulomb (6,) N m of drive friction per joint with its
+    regularising rate coulomb_rate (rad/s: the friction torque is ``coulomb tanh(phi_dot /
+    coulomb_rate)``), and turn_drag (dimensionless) with turn_rate (m/s): the horizontal force
+    ``-turn_drag tanh(x_dot / turn_rate)`` times the total normal force on the feet, the
+    torsional friction of turning the feet on the ground seen through the boom (applied by
+    :func:`bipedlab.robots.seven_link.contact.solve`)."""
+
+    mass_x: jax.Array
+    mass_y: jax.Array
+    load_y: jax.Array
+    coulomb: jax.Array
+    coulomb_rate: jax.Array
+    turn_drag: jax.Array
+    turn_rate: jax.Array
+
+
+@pytree
 class SevenLink:
     """The robot (a frozen pytree): the mechanics as a :class:`~bipedlab.mechanics.coupled.Coupled`
     tree seen through absolute angles, reflected rotor inertias on the joint rates, and
-    ``damping (6,)`` N m s and ``gear_ratio (6,)`` per joint [hip, knee, ankle] x 2."""
+    ``damping (6,)`` N m s and ``gear_ratio (6,)`` per joint [hip, knee, ankle] x 2.
+    ``setup``: None for the planar model, or the experimental setup's additions
+    (:class:`Setup`); being None or not is structural (part of the compiled program)."""
 
     coupled: cp.Coupled
     damping: jax.Array
     gear_ratio: jax.Array
+    setup: Setup | None = None
 
     @property
     def nq(self) -> int:
@@ -210,19 +234,41 @@ def absolute_angles(theta, phi) -> jax.Array:
 
 
 # ----------------------------------------------------------------------------- dynamics
+def _setup_mass(s: Setup) -> jax.Array:
+    """The setup's added mass matrix (9 x 9): diag(mass_x, mass_y, 0, ...)."""
+    return jnp.zeros((9, 9)).at[0, 0].set(s.mass_x).at[1, 1].set(s.mass_y)
+
+
+def _setup_load(s: Setup) -> jax.Array:
+    """The setup's added gravity force (9,): load_y on the hip's height."""
+    return jnp.zeros(9).at[1].set(s.load_y)
+
+
 def mass_matrix(r: SevenLink, q) -> jax.Array:
-    """M(q) (9 x 9), links plus reflected rotor inertias."""
-    return cp.mass_matrix(r.coupled, q)
+    """M(q) (9 x 9), links plus reflected rotor inertias (plus the setup's added inertia)."""
+    M = cp.mass_matrix(r.coupled, q)
+    return M if r.setup is None else M + _setup_mass(r.setup)
 
 
 def bias(r: SevenLink, q, qd) -> jax.Array:
     """h + G of eq. 1 (Coriolis, centrifugal and gravity), without the joint damping."""
-    return cp.bias(r.coupled, q, qd)
+    h = cp.bias(r.coupled, q, qd)
+    return h if r.setup is None else h + _setup_load(r.setup)
+
+
+def drive_friction(r: SevenLink, qd) -> jax.Array:
+    """Joint torques (6,) of the setup's Coulomb drive friction, ``-F_c tanh(phi_dot / rate)``
+    (zero for the planar model)."""
+    if r.setup is None:
+        return jnp.zeros(6)
+    return -r.setup.coulomb * jnp.tanh(joint_rates(qd) / r.setup.coulomb_rate)
 
 
 def damping_force(r: SevenLink, qd) -> jax.Array:
-    """Generalised force of the joint viscous damping, -E diag(b) phi_dot."""
-    return -jnp.asarray(E) @ (r.damping * joint_rates(qd))
+    """Generalised force of the joint viscous damping, -E diag(b) phi_dot, plus the setup's
+    Coulomb drive friction (:func:`drive_friction`)."""
+    f = -jnp.asarray(E) @ (r.damping * joint_rates(qd))
+    return f if r.setup is None else f + jnp.asarray(E) @ drive_friction(r, qd)
 
 
 def actuation(u) -> jax.Array:
@@ -231,11 +277,13 @@ def actuation(u) -> jax.Array:
 
 
 def kinetic_energy(r: SevenLink, q, qd) -> jax.Array:
-    return cp.kinetic_energy(r.coupled, q, qd)
+    T = cp.kinetic_energy(r.coupled, q, qd)
+    return T if r.setup is None else T + 0.5 * (r.setup.mass_x * qd[0] ** 2 + r.setup.mass_y * qd[1] ** 2)
 
 
 def potential_energy(r: SevenLink, q) -> jax.Array:
-    return cp.potential_energy(r.coupled, q)
+    V = cp.potential_energy(r.coupled, q)
+    return V if r.setup is None else V + r.setup.load_y * q[1]
 
 
 def energy(r: SevenLink, q, qd) -> jax.Array:
@@ -293,6 +341,9 @@ def dynamics_terms(r: SevenLink, q, qd):
     vel = kin.velocities(c.tree, fr, T @ qd)
     M = cp.dense(cp.mass_matrix_entries(c, fr), q[0])
     h = jnp.stack(cp.bias_entries(c, fr, vel))
+    if r.setup is not None:
+        M = M + _setup_mass(r.setup)
+        h = h + _setup_load(r.setup)
     tree = c.tree
     P, V, A, J = [], [], [], []
     zero = jnp.zeros_like(q[0])

@@ -28,6 +28,7 @@ import numpy as np
 from bipedlab.robots.seven_link import controller as ctl
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import contact as sc
+from bipedlab.robots.seven_link import setup as su
 from bipedlab.sim.integrators import rk4
 from bipedlab.sim.loop import SampledLoop
 from bipedlab.sim.loop import initial_state as loop_initial_state
@@ -95,15 +96,51 @@ def _simulator(settings: sc.Settings):
     return run
 
 
+@functools.lru_cache(maxsize=8)
+def _setup_simulator(settings: sc.Settings):
+    """The closed loop with the plant's robot in the parameters (``(policy params, plant)``),
+    so every :class:`~bipedlab.robots.seven_link.robot.Setup` shares one compiled program."""
+    def policy(pp, c, t, x, a):
+        return ctl.policy(pp[0], c, t, x, a)
+
+    loop = sc.closed_loop(su.plant(), policy, settings, ctl.log_vector, robot_of=lambda pp: pp[1])
+
+    def run(x0, active0, p, c0, plant):
+        return sc.simulate(plant, policy, (p, plant), c0, x0, active0, settings, ctl.log_vector, loop=loop)
+
+    return run
+
+
+def setup_parts(without=()) -> dict:
+    """Which parts of the boom setup are on (:data:`bipedlab.robots.seven_link.setup.PARTS`),
+    all but those named in ``without``."""
+    bad = [w for w in without if w not in su.PARTS]
+    if bad:
+        raise ValueError(f"seven-link: unknown setup parts {bad}, expected some of {list(su.PARTS)}")
+    return {k: k not in without for k in su.PARTS}
+
+
 def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
-             speed: float = START_SPEED):
-    """Simulate the closed loop; returns the raw :class:`~bipedlab.robots.seven_link.contact.SimResult`."""
+             speed: float = START_SPEED, setup: str = "planar", without=()):
+    """Simulate the closed loop; returns the raw :class:`~bipedlab.robots.seven_link.contact.SimResult`.
+    setup: "planar" (the planar model) or "boom" (the plant of
+    :mod:`bipedlab.robots.seven_link.setup`, less the parts named in ``without``; the
+    controller keeps the planar model, the knee lock torque is the controller's)."""
     r = sl.model()
     if x0 is None:
         x0, active0 = initial_condition(r, speed)
-    p = ctl.make_params(r, gains(params), sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
-    c0 = ctl.initial_state(x0)
-    return _simulator(settings_for(steps))(x0, active0, p, c0)
+    if setup == "planar":
+        p = ctl.make_params(r, gains(params), sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
+        c0 = ctl.initial_state(x0)
+        return _simulator(settings_for(steps))(x0, active0, p, c0)
+    if setup != "boom":
+        raise ValueError(f"seven-link: setup must be one of {list(su.SETUPS)}, got {setup!r}")
+    on = setup_parts(without)
+    g = gains(params).replace(knee_lock_torque=jnp.asarray(su.KNEE_LOCK_TORQUE * on["knee_lock"], jnp.float64))
+    p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
+    plant = su.plant(su.boom(boom_inertia=on["boom_inertia"], foot_turning=on["foot_turning"],
+                             drive_friction=on["drive_friction"]))
+    return _setup_simulator(settings_for(steps))(x0, active0, p, ctl.initial_state(x0), plant)
 
 
 def gait_metrics(res, weight: float, transient: int = TRANSIENT_STEPS) -> dict:
@@ -131,14 +168,18 @@ def _finite(v):
     return v if np.isfinite(v) else None
 
 
-def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progress=None, sensing: bool = False) -> dict:
+def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progress=None, sensing: bool = False,
+         setup: str = "planar", without=()) -> dict:
     """The walking study: a result record (JSON-ready) and, with ``out``, figures and an NPZ.
     sensing: the controller sees the Section V-A estimates (quantised encoders, body angle
-    from the contact kinematics or the integrated gyro) instead of the exact state."""
+    from the contact kinematics or the integrated gyro) instead of the exact state.
+    setup: "planar" or "boom" (:mod:`bipedlab.robots.seven_link.setup`; ``without`` switches
+    parts of it off); the boom record adds the setup's numbers (:func:`setup_record`)."""
     progress = progress or (lambda m: None)
     r = sl.model()
-    progress(f"seven-link: simulating {steps} steps with the {params} parameters (first run compiles, ~30 s)")
-    res = run_walk(steps, params, sensing=sensing)
+    where = "" if setup == "planar" else f" on the {setup} setup"
+    progress(f"seven-link: simulating {steps} steps with the {params} parameters{where} (first run compiles, ~30 s)")
+    res = run_walk(steps, params, sensing=sensing, setup=setup, without=without)
     status = int(res.status)
     n = int(res.n_touchdowns)
     weight = float(sl.total_mass(r)) * sl.GRAVITY
@@ -166,9 +207,34 @@ def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progres
     rec["body_angle_deg_mean"] = float(np.rad2deg(lx[tail, 2]).mean()) if nl else None
     rec["gains"] = {k: np.asarray(v).round(6).tolist() for k, v in
                     dict(k=gains(params).k, b=gains(params).b, ref_deg=np.rad2deg(np.asarray(gains(params).ref))).items()}
+    if setup != "planar":
+        rec.update(setup_record(res, rec, without))
     if out:
         rec["files"] = _walk_files(res, out, params)
     return rec
+
+
+def setup_record(res, rec: dict, without=()) -> dict:
+    """The boom walk's added record: the setup, its parts, the gait beside the paper's, the
+    friction coefficient against the peak no-slip ratio, the identified drive friction and the
+    setup's numbers (:func:`bipedlab.robots.seven_link.setup.describe`)."""
+    on = setup_parts(without)
+    s = su.boom(boom_inertia=on["boom_inertia"], foot_turning=on["foot_turning"], drive_friction=on["drive_friction"])
+    details = su.describe(s, su.KNEE_LOCK_TORQUE * on["knee_lock"])
+    gait = {k: rec[k] for k in PAPER_GAIT}
+    return dict(
+        setup="boom", setup_parts=on, contact_events_per_step=rec["events_per_step"],
+        friction_coefficient=su.FRICTION_COEFFICIENT,
+        friction_cone_exceeded=bool(rec["max_friction_ratio"] > su.FRICTION_COEFFICIENT),
+        drive_friction_nm=details["drive_coulomb_nm"],
+        drive_friction_identification=dict(
+            fig6_decay_read_deg_per_cycle=details["fig6_decay_read_deg_per_cycle"],
+            swing_stiffness_nm_per_rad=details["fig6_swing_stiffness_nm_per_rad"],
+            rule="F_c = (amplitude lost per cycle) k / 4; ankle = hip (same drive)"),
+        versus_paper={k: dict(model=gait[k], paper=PAPER_GAIT[k],
+                              relative_departure=None if gait[k] is None else gait[k] / PAPER_GAIT[k] - 1.0)
+                      for k in PAPER_GAIT},
+        setup_details=details)
 
 
 def _walk_files(res, out, params) -> list:
@@ -201,6 +267,13 @@ def summary_walk(rec: dict) -> str:
              f"{rec['max_constraint_drift']['position_after_projection_m']:.1e} m",
              f"  contact/knee-stop events {rec['events_per_step']:.1f} per step, {rec['releases']} releases "
              f"(unilateral check {'on' if rec['unilateral_check'] else 'off'})"]
+    if rec.get("setup"):
+        fc = rec["drive_friction_nm"]
+        off = [k for k, v in rec["setup_parts"].items() if not v]
+        lines.append(f"  setup {rec['setup']}{' without ' + ', '.join(off) if off else ''}: drive Coulomb friction "
+                     f"hip {fc['hip']:.3f}, knee {fc['knee']:.3f}, ankle {fc['ankle']:.3f} N m (from Fig. 6); "
+                     f"friction coefficient {rec['friction_coefficient']:.2f}, peak no-slip ratio "
+                     f"{rec['max_friction_ratio']:.2f}")
     if rec.get("files"):
         lines.append("  wrote " + ", ".join(rec["files"]))
     return "\n".join(lines)
@@ -274,11 +347,7 @@ def free_swing(out: str | None = None, release_deg: float = 45.0, duration: floa
     # hanging posture (absolute angles, body upright): the hip case swings theta_1..theta_3
     # together about a fixed hip; the knee case swings theta_2, theta_3 with the thigh
     # held horizontal and forward (theta_1 = pi, the shank hanging at phi_2 = -90 deg)
-    hang = np.array([0.0, 1.0, np.pi / 2, np.pi / 2, np.pi / 2, 0.0, np.pi / 2, np.pi / 2, 0.0])
-    knee_pose = hang.copy()
-    knee_pose[3] = np.pi
-    cases = {"hip": (hang, (0, 0, 0, 1, 1, 1, 0, 0, 0), 21.0, 105.0),
-             "knee": (knee_pose, (0, 0, 0, 0, 1, 1, 0, 0, 0), 12.0, 60.0)}
+    cases = {"hip": (*su.swing_case("hip"), 21.0, 105.0), "knee": (*su.swing_case("knee"), 12.0, 60.0)}
     rec = dict(robot="seven-link", experiment="free-swing", release_deg=release_deg, duration_s=duration, joints={})
     curves = {}
     for joint, (pose, e, n_lo, n_hi) in cases.items():

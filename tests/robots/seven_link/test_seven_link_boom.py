@@ -1,0 +1,129 @@
+"""The seven-link biped's experimental setup (``--setup boom``): the Coulomb drive friction
+identified from the Fig. 6 decay against the closed-form decay of an oscillator with Coulomb
+friction, the boom's terms (every loss off leaves the planar model plus the added inertia; the
+energy balance with the foot-turning loss), and a short boom walk."""
+from __future__ import annotations
+
+import jax
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from bipedlab.contact import rigid as aset
+from bipedlab.robots.seven_link import contact as sc
+from bipedlab.robots.seven_link import robot as sl
+from bipedlab.robots.seven_link import setup as su
+from bipedlab.robots.seven_link import study as w
+
+
+# ----------------------------------------------------------------------------- Fig. 6
+def test_coulomb_from_decay_is_the_closed_form():
+    # an oscillator with Coulomb torque F_c loses 4 F_c / k of amplitude per cycle
+    assert su.coulomb_from_decay(0.1, 8.0) == pytest.approx(0.2, rel=1e-15)
+    fc = su.identify_drive_friction()
+    for joint in ("hip", "knee"):
+        k = su.swing_stiffness(joint)
+        assert fc[joint] == pytest.approx(np.deg2rad(su.FIG6_DECAY_DEG[joint]) * k / 4, rel=1e-12)
+    assert fc["ankle"] == fc["hip"]
+    # the hanging leg's gravitational stiffness is about m g l_c of the leg (3.3 kg, ~0.4 m)
+    assert 8.0 < su.swing_stiffness("hip") < 16.0 and 2.0 < su.swing_stiffness("knee") < 6.0
+
+
+@pytest.mark.parametrize("joint,release_deg", [("hip", 20.0), ("knee", 25.0)])
+def test_free_swing_with_identified_friction_reproduces_the_decay(joint, release_deg):
+    """Simulate the Fig. 6 swing with the identified Coulomb friction alone (viscous off, the
+    closed-form oracle holds for Coulomb friction only): the amplitude falls linearly by the
+    read decay each cycle."""
+    r = sl.model(damping=(0.0, 0.0, 0.0)).replace(setup=su.boom(boom_inertia=False, foot_turning=False))
+    q0, e = su.swing_case(joint)
+    t, s = w._rk4_1dof(r, q0, e, np.deg2rad(release_deg), 8.0)
+    loss = np.deg2rad(su.FIG6_DECAY_DEG[joint])
+    measured = su.decay_per_cycle(t, s, min_peak=loss)
+    assert measured == pytest.approx(loss, rel=0.03)
+    # linear, not geometric: the first and the last cycles lose the same amplitude
+    d = np.diff(s)
+    turn = np.flatnonzero(np.sign(d[1:]) != np.sign(d[:-1])) + 1
+    peaks = np.concatenate([[abs(s[0])], np.abs(s[turn])])
+    peaks = peaks[peaks > loss]
+    assert len(peaks) >= 5
+    assert peaks[0] - peaks[2] == pytest.approx(peaks[-3] - peaks[-1], rel=0.06)
+
+
+# ----------------------------------------------------------------------------- boom terms
+def _state(r):
+    x0, active = w.initial_condition()
+    anchors = jnp.stack([sl.point_position(r, x0[:9], n) for n in sl.CONTACTS])[:, 0]
+    x, _ = sc.project(r, x0, active, anchors)
+    return x, active
+
+
+def test_every_loss_off_is_planar_plus_the_boom_inertia():
+    planar = sl.model()
+    x, active = _state(planar)
+    u = jnp.asarray([1.0, -0.5, 2.0, -1.0, 0.3, 0.7])
+    # no inertia, no losses: exactly the planar model
+    none = su.plant(su.boom(boom_inertia=False, foot_turning=False, drive_friction=False))
+    for a, b in zip(sc.solve(planar, x, u, active), sc.solve(none, x, u, active)):
+        np.testing.assert_allclose(np.asarray(b), np.asarray(a), rtol=1e-10, atol=1e-10)
+    # the inertia only: the planar dynamics with M + diag(m/3, m/3) and the arm's half weight
+    inert = su.plant(su.boom(foot_turning=False, drive_friction=False))
+    m = su.BOOM_ARM_MASS
+    q, qd = x[:9], x[9:]
+    M = sl.mass_matrix(planar, q).at[0, 0].add(m / 3).at[1, 1].add(m / 3)
+    np.testing.assert_allclose(sl.mass_matrix(inert, q), M, rtol=1e-14)
+    _, h, P, V, J, Jd = sl.dynamics_terms(planar, q, qd)
+    A, ab = sc.constraint_jacobian(J, Jd)
+    f = sc.applied_forces(planar, q, qd, u, h).at[1].add(-m * sl.GRAVITY / 2)
+    qdd_ref, lam_ref = aset.accelerations(M, f, A, ab, sc.row_mask(active))
+    qdd, lam = sc.solve(inert, x, u, active)
+    np.testing.assert_allclose(qdd, qdd_ref, rtol=1e-9, atol=1e-9)
+    np.testing.assert_allclose(lam, lam_ref, rtol=1e-9, atol=1e-9)
+    # the arm's weight rests on the feet: the normal forces carry it
+    assert float(jnp.sum(lam[:4]) - jnp.sum(sc.solve(planar, x, u, active)[1][:4])) > 0.0
+    assert float(sl.kinetic_energy(inert, q, qd) - sl.kinetic_energy(planar, q, qd)) == pytest.approx(
+        0.5 * m / 3 * float(qd[0] ** 2 + qd[1] ** 2), rel=1e-12)
+
+
+def test_energy_balance_with_the_boom_losses():
+    """d(T + V)/dt of the constrained motion equals the power of the actuators, the viscous
+    and Coulomb drive friction and the foot-turning loss (the no-slip contacts do no work),
+    and the turning loss dissipates turn_drag |x_dot| times the total normal force."""
+    r = su.plant()
+    x, active = _state(r)
+    x = x.at[9:].multiply(1.7)  # a faster state (still on the constraints: they are linear in qd)
+    u = jnp.asarray([1.0, -0.5, 2.0, -1.0, 0.3, 0.7])
+    q, qd = x[:9], x[9:]
+    qdd, lam = sc.solve(r, x, u, active)
+    E = lambda q, qd: sl.energy(r, q, qd)  # noqa: E731
+    _, dE = jax.jvp(E, (q, qd), (qd, qdd))
+    phid = sl.joint_rates(qd)
+    fn = float(jnp.sum(lam[:4]))
+    p_drag = float(sc.turn_drag_direction(r, qd) @ qd) * fn
+    p_drive = float(u @ phid + sl.damping_force(r, qd) @ qd)
+    assert float(dE) == pytest.approx(p_drive + p_drag, rel=1e-9, abs=1e-9)
+    assert p_drag < 0.0 and fn > 100.0
+    assert p_drag == pytest.approx(-float(r.setup.turn_drag) * abs(float(qd[0])) * fn, rel=1e-6)
+    # the Coulomb friction only ever takes energy out
+    assert float(sl.drive_friction(r, qd) @ phid) < 0.0
+
+
+# ----------------------------------------------------------------------------- walking
+BOOM_STEPS = 5
+
+
+@pytest.mark.slow
+def test_short_boom_walk_record():
+    boom = w.walk(BOOM_STEPS, "paper", setup="boom")
+    planar = w.walk(BOOM_STEPS, "paper")
+    for key in ("setup", "speed_mps", "step_length_m", "step_frequency_hz", "cmt", "contact_events_per_step",
+                "friction_coefficient", "drive_friction_nm", "versus_paper", "setup_details", "max_friction_ratio"):
+        assert key in boom, key
+    assert "setup" not in planar  # the planar record is today's
+    assert boom["setup"] == "boom" and not boom["fell"] and boom["steps_completed"] == BOOM_STEPS
+    assert boom["friction_coefficient"] == su.FRICTION_COEFFICIENT
+    assert boom["drive_friction_nm"] == pytest.approx(su.identify_drive_friction())
+    assert boom["versus_paper"]["speed_mps"]["paper"] == 0.5
+    # the added losses and inertia slow the same controller down and cost more work per metre
+    assert boom["speed_mps"] < planar["speed_mps"]
+    assert boom["max_impact_energy_change_j"] <= 1e-9
+    assert boom["max_constraint_drift"]["position_after_projection_m"] < 1e-8
