@@ -65,6 +65,8 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
 """
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -86,7 +88,7 @@ class CtrlParams:
     theta_star: float
     K: jax.Array                  # flight LQR gain (2x4)
     tau_max: float
-    regulation: bool              # energy regulation (True) or conservation (False)
+    regulation: bool              # energy regulation (True) or conservation (False); traced in the loop
     c_energy: float
     kp_theta: float = 300.0
     kd_theta: float = 40.0
@@ -157,14 +159,24 @@ def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPoli
                       bool(regulation), float(c))
 
 
+_stance_flow = jax.jit(slip.stance_flow)
+
+
 def _nominal_work_integral(smm, y_apex, speed, dt=1e-4):
     """int (l0 - l) l'^2 dt over the periodic SMM stance (so c dE times it is the energy
-    removed per stance)."""
+    removed per stance); cached per model and gait."""
+    return _work_integral(float(smm.m), float(smm.k0), float(smm.l0), float(smm.g), float(y_apex), float(speed),
+                          float(dt))
+
+
+@functools.lru_cache(maxsize=16)
+def _work_integral(m, k0, l0, g, y_apex, speed, dt):
+    smm = slip.SlipParams(m, k0, l0, g)
     gait = slip.Gait(y_apex, speed)
     a = slip.periodic_angle(smm, gait)
     s, _ = slip.touchdown_state(smm, y_apex, speed, a)
     s = np.asarray(s)
-    f = lambda s: np.asarray(slip.stance_flow(smm, jnp.asarray(s)))
+    f = lambda s: np.asarray(_stance_flow(smm, jnp.asarray(s)))  # compiled: the same values as op by op
     total = 0.0
     for _ in range(20000):
         l = np.linalg.norm(s[:2])
@@ -209,14 +221,20 @@ def _leg_pd(cp, l_target, l, ld):
     designed for ``leg_design_delay`` = 10 ms whatever the delay (kp = 500 N/m, kd = 14 N s/m on
     the 0.2 kg foot: w = 50 rad/s, a leg-length loop at 8 Hz), or for the known delay if larger
     (--delay-compensation). Measured without delay on 8 terrains of 30 m (energy conservation):
-    success 100 % with either gains."""
-    kp, kd = cp.kp_leg, cp.kd_leg
-    tau = max(float(cp.delay), float(cp.leg_design_delay))
-    if tau > 0 and cp.mp.m_f > 0:
-        w = cp.leg_delay_margin / tau
-        kp = min(kp, cp.mp.m_f * w * w)
-        kd = min(kd, 2 * cp.leg_zeta * (kp * cp.mp.m_f) ** 0.5)
+    success 100 % with either gains. The gains are functions of the (possibly traced)
+    parameters: the same values for every delay and model error."""
+    kp, kd = _leg_gains(cp)
     return jnp.clip(kp * (l_target - l) - kd * ld, -cp.f_swing_max, cp.f_swing_max)
+
+
+def _leg_gains(cp):
+    """(kp, kd) of :func:`_leg_pd`: the nominal gains, capped for the design delay."""
+    tau = jnp.maximum(cp.delay, cp.leg_design_delay)
+    capped = (tau > 0) & (cp.mp.m_f > 0)
+    w = cp.leg_delay_margin / jnp.where(capped, tau, 1.0)
+    kp = jnp.where(capped, jnp.minimum(cp.kp_leg, cp.mp.m_f * w * w), cp.kp_leg)
+    kd = jnp.where(capped, jnp.minimum(cp.kd_leg, 2 * cp.leg_zeta * jnp.sqrt(kp * cp.mp.m_f)), cp.kd_leg)
+    return kp, kd
 
 
 def _tuck_length(cp, q, y_ground, gamma):

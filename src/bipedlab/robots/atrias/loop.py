@@ -14,8 +14,9 @@ it runs the ``RunConfig.substeps`` Euler steps and then the per-sample apex book
   +-3 deg/s, +-3 cm, +-3 cm/s, redrawn every 3 ms: drawn each sample from the trial's key
   folded with the sample index // 3, so no held value; :func:`bipedlab.sim.sensors.held_noise`
   gives the same draws but its select changes the compiled arithmetic, by 1e-11 in the apex
-  records) and the foot contact switches, all delayed by a whole number of samples
-  (:class:`bipedlab.sim.sensors.Delay`, exact);
+  records; the draw is scaled by ``Sensing.noise``, 0 or 1, so 0 adds exact zeros) and the
+  foot contact switches, all delayed by a whole number of samples (:func:`delay_read`: a
+  delay line of fixed length read ``Sensing.delay`` samples back, exact);
 * :func:`controller` - :func:`bipedlab.robots.atrias.controller.control` with its
   :class:`~bipedlab.robots.atrias.controller.CtrlState`, keeping the leg-angle target and the
   previous stance leg for the log;
@@ -28,9 +29,13 @@ the bounce height is its apex above the ground of the last stance foot, the spee
 velocity there. Time is computed from sample counters ((k + 1) dt substeps), not from the loop's
 accumulated ``LoopState.t``.
 
-Per-trial parameters are :class:`Trial` (terrain, random key); the robot and controller
-parameters are closed over. :func:`make_chunk` builds one compiled function advancing a batch
-of trials by a fixed number of samples; the caller loops over chunks (progress bar) re-using it.
+The loop's parameters are :class:`Params`: per trial a :class:`Trial` (terrain, random key),
+shared by the batch the controller parameters and the :class:`Sensing` (noise amplitude,
+delay in samples), all traced, so energy options, model errors, noise and delays up to the
+delay line's length run on one compiled program. Only :class:`Program` (the static part of a
+:class:`RunConfig`: log, step, sub-steps, delay-line length) and the robot parameters are
+closed over. :func:`make_chunk` builds one compiled function advancing a batch of trials by a
+fixed number of samples; the caller loops over chunks (progress bar) re-using it.
 """
 from __future__ import annotations
 
@@ -59,10 +64,14 @@ NOISE_AMP = np.array([0.03, 0.03, np.deg2rad(3), np.deg2rad(3), np.deg2rad(3), 0
                       0.03, 0.03, np.deg2rad(3), np.deg2rad(3), np.deg2rad(3), 0.03, 0.03])
 
 
+DELAY_LINE = 16  # samples of the delay line: delays up to DELAY_LINE - 1 share a program
+
+
 @dataclasses.dataclass(frozen=True)
 class RunConfig:
-    """Static settings: noise on/off, delay in samples, whether to log every sample,
-    integration step and steps per sample."""
+    """Settings of a run: noise on/off, delay in samples, whether to log every sample,
+    integration step and steps per sample. Noise and delay enter the compiled program as
+    traced :class:`Sensing`; the rest is its static :class:`Program`."""
 
     noise: bool = False
     delay: int = 0
@@ -71,12 +80,65 @@ class RunConfig:
     substeps: int = SUBSTEPS
 
 
+@dataclasses.dataclass(frozen=True)
+class Program:
+    """The static part of a :class:`RunConfig`, what fixes the compiled program: logging,
+    integration step, sub-steps per sample and the delay line's length (samples, above the
+    delay)."""
+
+    log: bool = False
+    dt: float = DT
+    substeps: int = SUBSTEPS
+    delay_line: int = DELAY_LINE
+
+
+def program(cfg: RunConfig) -> Program:
+    """The compiled program of ``cfg``: a delay line of DELAY_LINE samples, or longer for a
+    longer delay."""
+    return Program(cfg.log, cfg.dt, cfg.substeps, max(DELAY_LINE, int(cfg.delay) + 1))
+
+
 @pytree
 class Trial:
     """Per-trial parameters of the loop: the terrain and the noise key."""
 
     terrain: tr.Terrain
     key: jax.Array
+
+
+@pytree
+class Sensing:
+    """The sensing of a run, traced: the noise amplitude (0 none, 1 :data:`NOISE_AMP`) and the
+    delay (whole samples, below the program's delay line)."""
+
+    noise: jax.Array
+    delay: jax.Array
+
+
+@pytree
+class Params:
+    """The loop's parameters: the trial's (batched), the controller's and the sensing (shared
+    by a batch)."""
+
+    trial: Trial
+    cp: rc.CtrlParams
+    sensing: Sensing
+
+
+def sensing(cfg: RunConfig) -> Sensing:
+    return Sensing(jnp.asarray(1.0 if cfg.noise else 0.0, jnp.float64), jnp.asarray(int(cfg.delay), jnp.int32))
+
+
+def _strong(a):
+    a = jnp.asarray(a)
+    return jnp.asarray(a, a.dtype)
+
+
+def params(trial: Trial, cp: rc.CtrlParams, cfg: RunConfig) -> Params:
+    """The loop's parameters for ``trial``: the controller parameters as strongly typed arrays
+    (a Python float is weakly typed, and a different typing would compile the program again)
+    and the sensing of ``cfg``."""
+    return Params(trial, jax.tree_util.tree_map(_strong, cp), sensing(cfg))
 
 
 @pytree
@@ -101,10 +163,10 @@ class Plant:
 
 @pytree
 class SensorState:
-    """Sample counter (for the noise) and the delay line (None without delay)."""
+    """Sample counter (for the noise) and the delay line of the measurements."""
 
     k: jax.Array
-    delay: sensors.Delay | None
+    delay: sensors.Delay
 
 
 @pytree
@@ -142,7 +204,7 @@ def initial_state(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig, y_apex
     f64 = lambda v: jnp.asarray(v, jnp.float64)
     x = Plant(s, jnp.zeros((2, 2)), i32(0), f64(0.0), jnp.asarray(False), f64(0.0), zf, zf, zf, zf, i32(0),
               f64(0.0), f64(0.0))
-    sens = SensorState(i32(0), sensors.delay_init(z, cfg.delay) if cfg.delay else None)
+    sens = SensorState(i32(0), sensors.delay_init(z, program(cfg).delay_line))
     cs = rc.init_state(cp, 0)
     ctrl = Ctrl(cs, f64(0.0), cs.leg, i32(0))
     return sl.initial_state(x, sens, ctrl)
@@ -153,35 +215,43 @@ def _measure(rp, s, grf):
     return jnp.concatenate([s.q, s.qd, contact])
 
 
-def make_loop(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig) -> sl.SampledLoop:
-    """The closed loop's stages for one trial (params: :class:`Trial`)."""
+def delay_read(d: sensors.Delay, value, n):
+    """Write ``value`` into the delay line and read the value written ``n`` samples ago
+    (``value`` itself for n = 0, the prefill before n writes; 0 <= n < the line's length):
+    (delay line, out). For n >= 1 the same values as a :func:`bipedlab.sim.sensors.delay_push`
+    line of n samples."""
+    size = d.buffer.shape[0]
+    buf = d.buffer.at[d.head].set(value)
+    return sensors.Delay(buf, (d.head + 1) % size), buf[(d.head - n) % size]
+
+
+def make_loop(rp: at.AtriasParams, prog: Program) -> sl.SampledLoop:
+    """The closed loop's stages for one trial (params: :class:`Params`)."""
     gp = at.ground_params(rp)
 
-    def sensor(p: Trial, ss_: SensorState, x: Plant, t):
+    def sensor(p: Params, ss_: SensorState, x: Plant, t):
         # measurement of the state after the previous sample, noise, delay
-        z = _measure(rp, x.s, _grf_of(rp, gp, p.terrain, x.s))
-        if cfg.noise:  # redrawn every NOISE_EVERY samples: the same key for the samples between
-            n = jax.random.uniform(jax.random.fold_in(p.key, ss_.k // NOISE_EVERY), (14,), minval=-1.0,
-                                   maxval=1.0) * NOISE_AMP
-            z = z.at[:14].add(n)
-        delay = ss_.delay
-        if delay is not None:
-            delay, z = sensors.delay_push(delay, z)
+        z = _measure(rp, x.s, _grf_of(rp, gp, p.trial.terrain, x.s))
+        # redrawn every NOISE_EVERY samples: the same key for the samples between
+        n = jax.random.uniform(jax.random.fold_in(p.trial.key, ss_.k // NOISE_EVERY), (14,), minval=-1.0,
+                               maxval=1.0) * NOISE_AMP
+        z = z.at[:14].add(n * p.sensing.noise)
+        delay, z = delay_read(ss_.delay, z, p.sensing.delay)
         meas = rc.Meas(z[:7], z[7:14], z[14:16], jnp.zeros(2))
         return SensorState(ss_.k + 1, delay), Sensed(meas, ss_.k)
 
-    def controller(p: Trial, c: Ctrl, y: Sensed, t):
-        cs, u, alpha = rc.control(cp, c.cs, y.meas)
+    def controller(p: Params, c: Ctrl, y: Sensed, t):
+        cs, u, alpha = rc.control(p.cp, c.cs, y.meas)
         return Ctrl(cs, alpha, c.cs.leg, y.k + 1), u
 
-    def plant_step(p: Trial, x: Plant, u, d, h, t):
-        terr = p.terrain
+    def plant_step(p: Params, x: Plant, u, d, h, t):
+        terr = p.trial.terrain
 
         def sub(_, carry):
             s, _g = carry
-            return at.step(rp, gp, terr, s, u, cfg.dt)
+            return at.step(rp, gp, terr, s, u, prog.dt)
 
-        s, grf = jax.lax.fori_loop(0, cfg.substeps, sub, (x.s, jnp.zeros((2, 2))))
+        s, grf = jax.lax.fori_loop(0, prog.substeps, sub, (x.s, jnp.zeros((2, 2))))
         # bookkeeping on the true state
         q, qd = s.q, s.qd
         com, vcom = system_com(rp, q, qd)
@@ -196,22 +266,23 @@ def make_loop(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig) -> sl.Samp
         ay = jnp.where(apex, x.apex_y.at[idx].set(com[1]), x.apex_y)
         ax = jnp.where(apex, x.apex_x.at[idx].set(com[0]), x.apex_x)
         n_apex = x.n_apex + apex.astype(x.n_apex.dtype)
-        late = (x.k + 1) * cfg.dt * cfg.substeps > 1.0
-        pe = q[2] - cp.theta_star
+        late = (x.k + 1) * prog.dt * prog.substeps > 1.0
+        pe = q[2] - p.cp.theta_star
         return Plant(s, grf, x.k + 1, vcom[1], armed, last_ground, ab, asp, ay, ax, n_apex,
                      x.pitch_sq + jnp.where(late, pe * pe, 0.0), x.pitch_n + late.astype(float))
 
-    def fell(p: Trial, x_before, y, u, x: Plant):
+    def fell(p: Params, x_before, y, u, x: Plant):
         q = x.s.q
-        return (q[1] - tr.ground(p.terrain, q[0]) < 0.45) | (jnp.abs(q[2]) > np.deg2rad(60))
+        return (q[1] - tr.ground(p.trial.terrain, q[0]) < 0.45) | (jnp.abs(q[2]) > np.deg2rad(60))
 
-    def log(p: Trial, x_before, y, u, x: Plant, c: Ctrl):
+    def log(p: Params, x_before, y, u, x: Plant, c: Ctrl):
         q, qd = x.s.q, x.s.qd
-        return dict(t=c.k * cfg.dt * cfg.substeps, q=q, qd=qd, grf=x.grf, u=at.clip_input(rp, u), mode=c.cs.mode,
-                    leg=c.leg, alpha=c.alpha, H=at.angular_momentum(rp, q, qd), ground=tr.ground(p.terrain, q[0]))
+        return dict(t=c.k * prog.dt * prog.substeps, q=q, qd=qd, grf=x.grf, u=at.clip_input(rp, u), mode=c.cs.mode,
+                    leg=c.leg, alpha=c.alpha, H=at.angular_momentum(rp, q, qd),
+                    ground=tr.ground(p.trial.terrain, q[0]))
 
     return sl.SampledLoop(plant_step=plant_step, sensor=sensor, controller=controller, fell=fell,
-                          sample_time=cfg.dt * cfg.substeps, substeps=1, log=log if cfg.log else None)
+                          sample_time=prog.dt * prog.substeps, substeps=1, log=log if prog.log else None)
 
 
 def system_com(rp, q, qd):
@@ -233,15 +304,15 @@ def _grf_of(rp, gp, terr, s):
     return jnp.stack(out)
 
 
-def make_chunk(rp, cp, cfg: RunConfig, n_samples: int, batched: bool):
-    """Compiled: advance (loop state, :class:`Trial`) by n_samples with
-    :func:`bipedlab.sim.loop.run`; vmapped over trials (state and params) if batched. Returns
-    (state, logs or None)."""
-    loop = make_loop(rp, cp, cfg)
+def make_chunk(rp, prog: Program, n_samples: int, batched: bool):
+    """Compiled: advance (loop state, :class:`Params`) by n_samples with
+    :func:`bipedlab.sim.loop.run`; vmapped over trials (the state and ``Params.trial``; the
+    controller parameters and the sensing shared) if batched. Returns (state, logs or None)."""
+    loop = make_loop(rp, prog)
 
     def run(s, p):
         return sl.run(loop, p, s, n_samples)
 
     if batched:
-        run = jax.vmap(run, in_axes=(0, Trial(tr.Terrain(0, None, None, None), 0)))
+        run = jax.vmap(run, in_axes=(0, Params(Trial(tr.Terrain(0, None, None, None), 0), None, None)))
     return jax.jit(run)

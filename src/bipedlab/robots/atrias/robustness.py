@@ -35,7 +35,7 @@ def study(distance: float = 15.0, max_step: float = 0.3, trunk_offset_deg: float
     template = tr.rough(np.random.default_rng(0), max_step, length)
     n_levels = int(template.heights.shape[0])
     cfg = ar.RunConfig(noise=noise)
-    loop = ar.make_loop(rp, cp, cfg)
+    loop = ar.make_loop(rp, ar.program(cfg))
     c0 = ar.initial_state(rp, cp, cfg)
     n_samples = int(round(T / ar.CONTROL_DT))
     axes = [rb.Axis("step_height", 0.0, max_step, bins, "m", "max step height H")]
@@ -49,7 +49,8 @@ def study(distance: float = 15.0, max_step: float = 0.3, trunk_offset_deg: float
         if trunk_offset_deg > 0:
             s = c.x.s
             c = c.replace(x=c.x.replace(s=s.replace(q=s.q.at[at.ITH].add(jnp.deg2rad(p["trunk_offset"])))))
-        s, _ = sl.run(loop, ar.Trial(terr, p["key"]), c, n_samples)  # key: raw uint32 pair, as run atrias
+        trial = ar.Trial(terr, p["key"])  # key: raw uint32 pair, as run atrias
+        s, _ = sl.run(loop, ar.params(trial, cp, cfg), c, n_samples)
         x = s.x.s.q[0]
         reached = x >= distance
         status = jnp.where(reached, sl.OK, s.status)

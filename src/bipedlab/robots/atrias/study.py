@@ -3,7 +3,8 @@
 errors, beside the pure spring-mass model on the same terrains (Fig. 8).
 
 ``simulate`` runs one or many trials batched in one compiled chunk function (time chunks of
-1 s re-use it, with a progress bar on stderr) and returns the per-trial apex records and
+1 s re-use it, with a progress bar on stderr; energy options, model errors, noise and delays
+share it, see :func:`chunk_function`) and returns the per-trial apex records and
 status; ``study`` turns them into the record printed by ``bipedlab run atrias``.
 Statistics skip the first two apexes (the start transient) and, for the robot, count only
 apexes before a fall; ``apex_height_error_steady_m`` and ``speed_error_steady_mps`` (also as
@@ -81,7 +82,7 @@ def build(st: Settings):
     return _build(tuple(st.model_error), st.energy)
 
 
-@functools.lru_cache(maxsize=8)
+@functools.lru_cache(maxsize=16)
 def _build(model_error, energy):
     rp = at.AtriasParams()
     err = dict(model_error)
@@ -96,11 +97,19 @@ def _build(model_error, energy):
     # true one (ATRIAS's legs are springs: here the virtual spring the stance realises, k0). Scaling
     # that realised spring too would leave the policy consistent with it (no foot-placement error):
     # measured on 8 terrains of 30 m, +-20 % then moved the errors by less than 1 cm and 1.5 cm/s.
-    smm_model = slip.SlipParams(m=rp.m * s_m, k0=slip.SlipParams().k0 * s_k)
-    pol, samples = slip.swing_policy(smm_model, gait)
+    smm_model, pol, samples = _policy(rp.m * s_m, slip.SlipParams().k0 * s_k, gait)
     cp = rc.make_params(mp, smm_model, pol, regulation=(energy == "regulation"),
                         tau_max=rp.tau_max, stiffness_scale=1.0 / s_k)
     return rp, cp, gait, samples
+
+
+@functools.lru_cache(maxsize=16)
+def _policy(m: float, k0: float, gait):
+    """The spring-mass model of mass m and stiffness k0 and its swing policy for gait (cached:
+    the energy options and the inertia and friction errors share the nominal one)."""
+    smm_model = slip.SlipParams(m=m, k0=k0)
+    pol, samples = slip.swing_policy(smm_model, gait)
+    return smm_model, pol, samples
 
 
 def make_terrains(st: Settings, n: int, length: float):
@@ -133,6 +142,19 @@ def loop_config(st: Settings, cp, log: bool = False, dt: float = ar.DT):
     return cfg, cp
 
 
+def chunk_function(rp, prog, n_chunk: int):
+    """The compiled batched chunk of ``n_chunk`` samples for the robot ``rp`` and the static
+    program ``prog`` (:func:`bipedlab.robots.atrias.loop.program`), made once per process: the
+    controller parameters (energy option, model errors, known delay) and the sensing (noise,
+    delay) are its traced arguments, so every variant of a trial count and terrain length
+    runs on one compiled program."""
+    robot = tuple(np.asarray(a).tobytes() for a in jax.tree_util.tree_leaves(rp))
+    key = (robot, prog, n_chunk)
+    if key not in _CHUNKS:
+        _CHUNKS[key] = ar.make_chunk(rp, prog, n_chunk, batched=True)
+    return _CHUNKS[key]
+
+
 def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: float = 1.0,
              theta0_offsets_deg=None, dt: float = ar.DT):
     """Run n trials; returns (dict of numpy arrays with a leading trial axis, plus the logs
@@ -151,15 +173,13 @@ def simulate(st: Settings, n: int, log: bool = False, progress=None, chunk_s: fl
         s = c.x.s
         c = c.replace(x=c.x.replace(s=s.replace(q=s.q.at[:, at.ITH].add(jnp.asarray(off)))))
     trials = ar.Trial(terr, jax.random.split(jax.random.PRNGKey(st.seed), n))
+    params = ar.params(trials, cp, cfg)
     n_chunk = int(round(chunk_s / ar.CONTROL_DT))
     n_chunks = int(np.ceil(T / chunk_s))
-    key = (tuple(st.model_error), st.energy, cfg, n_chunk, float(cp.delay))
-    if key not in _CHUNKS:
-        _CHUNKS[key] = ar.make_chunk(rp, cp, cfg, n_chunk, batched=True)
-    f = _CHUNKS[key]
+    f = chunk_function(rp, ar.program(cfg), n_chunk)
     logs = []
     for j in range(n_chunks):
-        c, lg = f(c, trials)
+        c, lg = f(c, params)
         if log:
             logs.append(jax.tree_util.tree_map(np.asarray, lg))
         if progress:
