@@ -52,7 +52,7 @@ def test_every_experiment_has_full_arguments_and_says_what_quick_does(key):
 @pytest.mark.parametrize("argv, words", [
     (["reproduce", "walking"], "unknown paper 'walking'"),
     (["reproduce", "hzd", "nonsense"], "unknown paper 'nonsense'"),
-    (["reproduce", "--quick", "--only", "hzd/push"], "--only 'hzd/push'"),
+    (["reproduce", "--quick", "--only", "hzd/somersault"], "--only 'hzd/somersault'"),
     (["reproduce", "running", "--only", "hzd/nominal"], "--only 'hzd/nominal'"),
     (["reproduce", "--out", ""], "--out"),
     (["reproduce", "--fast"], "unrecognized arguments"),

@@ -1,16 +1,17 @@
 """The core's own command: ``bipedlab reproduce [PAPER ...] [--quick] [--out DIR] [--json]``.
 
 The papers are those the robot packages register (:mod:`bipedlab.report.registry`); every
-experiment runs in this one process (one compile cache), its result stored under a content
-hash, and the report is written to DIR (default ``./bipedlab-report``): index.html,
+paper's experiments run in one process (several papers side by side in worker processes,
+``--jobs``), each result stored under a content hash, and the report is written to DIR (default ``./bipedlab-report``): index.html,
 report.json and the figures.
 """
 from __future__ import annotations
 
 import argparse
+import os
 import time
 
-from bipedlab.cli import Command, UsageError, add_out, text
+from bipedlab.cli import Command, UsageError, add_out, int_in, text
 
 DEFAULT_OUT = "bipedlab-report"
 
@@ -29,6 +30,9 @@ def _arguments(p) -> None:
                         "each reduction stated in the report")
     p.add_argument("--rerun", action="store_true", help="run every experiment again instead of reusing stored results")
     p.add_argument("--list", action="store_true", help="list the papers and their experiments, run nothing")
+    p.add_argument("--jobs", type=int_in(1, 64), default=None,
+                   help="worker processes that run papers side by side (default: one per core; 1 runs everything "
+                        "in this process)")
     p.add_argument("--only", type=text, action="append", default=None, metavar="PAPER/EXPERIMENT",
                    help=argparse.SUPPRESS)
     add_out(p, "index.html, report.json and the figures (default ./bipedlab-report)")
@@ -67,6 +71,12 @@ def listing(known) -> str:
     return "\n".join(lines)
 
 
+def _cpu_s() -> float:
+    """CPU seconds of this process and of its finished worker processes."""
+    t = os.times()
+    return t.user + t.system + t.children_user + t.children_system
+
+
 def _run(args, progress):
     from bipedlab.report import build, runner
 
@@ -74,10 +84,13 @@ def _run(args, progress):
     if args.list:
         return dict(papers={k: [e.name for e in p.experiments] for k, p in known.items()}), lambda r: listing(known)
     papers = [p for k, p in known.items() if not args.papers or k in args.papers]
-    t0, c0 = time.perf_counter(), time.process_time()
+    t0, c0 = time.perf_counter(), _cpu_s()
     only = set(args.only) if args.only else None
-    results = runner.run_all(papers, args.quick, progress, use_cache=not args.rerun, only=only)
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    from bipedlab.report import workers
+
+    jobs = args.jobs if args.jobs is not None else workers.default_jobs()
+    results = runner.run_all(papers, args.quick, progress, use_cache=not args.rerun, only=only, jobs=jobs)
+    wall, cpu = time.perf_counter() - t0, _cpu_s() - c0
     progress("writing the report")
     report = build.build(papers, results, args.quick, args.out, wall, cpu)
     report["index_html"] = f"{args.out}/index.html"

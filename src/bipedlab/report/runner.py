@@ -109,22 +109,30 @@ def _fmt_s(s: float) -> str:
 
 
 class Progress:
-    """One display over the whole run on stderr: experiment k of n, elapsed, expected left."""
+    """One display over the whole run on stderr: experiment k of n, elapsed, expected left.
+    With ``jobs`` workers the time left is the expected work left shared among them, scaled by
+    how this machine has done so far."""
 
-    def __init__(self, plan: list, say: Callable[[str], None]):
+    def __init__(self, plan: list, say: Callable[[str], None], jobs: int = 1, wall_expected: Optional[float] = None):
         self.plan = plan            # [(paper, Experiment, expected_s)]
         self.say = say
+        self.jobs = max(1, int(jobs))
         self.t0 = time.perf_counter()
         self.done_expected = 0.0
         self.total_expected = sum(e for _, _, e in plan)
+        self.wall_expected = self.total_expected / self.jobs if wall_expected is None else wall_expected
+
+    def left(self) -> float:
+        el = time.perf_counter() - self.t0
+        left = max(self.total_expected - self.done_expected, 0.0) / self.jobs
+        if self.done_expected > 30.0:  # scale the estimate by how this machine has done so far
+            left *= min(max(el * self.jobs / self.done_expected, 0.5), 4.0)
+        return left
 
     def start(self, k: int, label: str, expected: float, cached: bool) -> None:
         el = time.perf_counter() - self.t0
-        left = max(self.total_expected - self.done_expected, 0.0)
-        if self.done_expected > 30.0:  # scale the estimate by how this machine has done so far
-            left *= min(max(el / self.done_expected, 0.5), 4.0)
         what = "cached result" if cached else f"expected {_fmt_s(expected)}"
-        self.say(f"[{k}/{len(self.plan)}] {label} ({what}); elapsed {_fmt_s(el)}, about {_fmt_s(left)} left")
+        self.say(f"[{k}/{len(self.plan)}] {label} ({what}); elapsed {_fmt_s(el)}, about {_fmt_s(self.left())} left")
 
     def finish(self, expected: float) -> None:
         self.done_expected += expected
@@ -199,37 +207,62 @@ def plan(papers: list, quick: bool) -> list:
 
 
 def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bool = True,
-            only: Optional[set] = None) -> dict:
+            only: Optional[set] = None, jobs: int = 1) -> dict:
     """Run every experiment of ``papers``: {paper key: [Result, ...]} (skipped ones included).
-    ``only``: names "paper/experiment" to run (the others are reported as not run)."""
+    ``only``: names "paper/experiment" to run (the others are reported as not run). ``jobs`` > 1
+    runs the papers side by side in that many worker processes (:mod:`bipedlab.report.workers`)
+    when more than one paper has work to do; otherwise everything runs in this process."""
+    from bipedlab.report import workers
+
     steps = [(p, e, x) for p, e, x in plan(papers, quick) if only is None or f"{p.key}/{e.name}" in only]
     cached = {id(e): (root_has(p, e, quick) if use_cache else False) for p, e, _ in steps}
     steps_expected = [(p, e, 1.0 if cached[id(e)] else x) for p, e, x in steps]
-    prog = Progress(steps_expected, say)
+    busy = {p.key: sum(x for q, e, x in steps_expected if q is p and not cached[id(e)]) for p in papers}
+    jobs = max(1, min(int(jobs), sum(1 for v in busy.values() if v > 0)))
+    prog = Progress(steps_expected, say, jobs=jobs,
+                    wall_expected=workers.makespan([sum(x for q, _, x in steps_expected if q is p) for p in papers], jobs))
     if not all(cached.values()):
         say(f"reproducing {len(papers)} paper(s), {len(steps)} experiment(s)"
-            f"{' (--quick)' if quick else ''}: expected duration about {_fmt_s(prog.total_expected)} "
-            "from an empty compile cache on a two-core CPU")
+            f"{' (--quick)' if quick else ''}{f' in {jobs} processes' if jobs > 1 else ''}: expected duration "
+            f"about {_fmt_s(prog.wall_expected)} from an empty compile cache on a two-core CPU")
+    selected = {(p.key, e.name): x for p, e, x in steps_expected}
+    done: dict = {}
+    counter = [0]
+
+    def started(key: str, name: str) -> None:
+        counter[0] += 1
+        prog.start(counter[0], f"{key}: {name}", selected[(key, name)], cached[id(_exp(papers, key, name))])
+
+    def finished(key: str, name: str, r: "Result") -> None:
+        prog.finish(selected[(key, name)])
+        label = f"{key}: {name}"
+        say(f"  {label}: stored result of a {_fmt_s(r.wall_s)} run" if r.cached else
+            f"  {label}: done in {_fmt_s(r.wall_s)}, compile {_fmt_s(r.compile_s)}")
+        done[(key, name)] = r
+
+    if jobs > 1:
+        groups = [(p.key, busy[p.key], [e.name for q, e, _ in steps if q is p]) for p in papers
+                  if any(q is p for q, _, _ in steps)]
+        workers.run(groups, quick, use_cache, jobs, on_start=started,
+                    on_say=lambda label, msg: prog.inner(label)(msg), on_done=finished)
+    else:
+        for p, e, _ in steps:
+            started(p.key, e.name)
+            finished(p.key, e.name, run_experiment(p, e, quick, prog.inner(f"{p.key}: {e.name}"), use_cache=use_cache))
     results: dict = {p.key: [] for p in papers}
-    k = 0
     for p in papers:
         for e in p.experiments:
-            selected = any(e is s for _, s, _ in steps)
-            if not selected:
-                r = Result(p.key, e.name, e.command, e.args(quick), None, reduction=e.reduction if quick else "")
-                r.skipped = e.skip_reason if e.args(quick) is None else "not selected in this run"
-                results[p.key].append(r)
+            if (p.key, e.name) in done:
+                results[p.key].append(done[(p.key, e.name)])
                 continue
-            k += 1
-            expected = next(x for _, s, x in steps_expected if s is e)
-            label = f"{p.key}: {e.name}"
-            prog.start(k, label, expected, cached[id(e)])
-            r = run_experiment(p, e, quick, prog.inner(label), use_cache=use_cache)
-            prog.finish(expected)
-            say(f"  {label}: stored result of a {_fmt_s(r.wall_s)} run" if r.cached else
-                f"  {label}: done in {_fmt_s(r.wall_s)}, compile {_fmt_s(r.compile_s)}")
+            r = Result(p.key, e.name, e.command, e.args(quick), None, reduction=e.reduction if quick else "")
+            r.skipped = e.skip_reason if e.args(quick) is None else "not selected in this run"
             results[p.key].append(r)
     return results
+
+
+def _exp(papers: list, key: str, name: str) -> Experiment:
+    return next(p for p in papers if p.key == key).experiment(name)
 
 
 def root_has(paper: Paper, exp: Experiment, quick: bool) -> bool:

@@ -168,17 +168,101 @@ def _wx(name):
     def run(args, out, progress):
         from bipedlab.robots.mabel.walking import experiments as wx
 
+        if args.get("quick"):
+            return _QUICK[name](args, out, progress)
         return wx.run(name, steps=args["steps"], out=out, progress=progress)
     return run
 
 
-def _walk_exp(name, command, full_steps, quick_steps, expected, quick_expected, note=""):
-    red = NOT_QUICK if quick_steps is None else f"{quick_steps} steps per walk instead of {full_steps}{note}"
-    return Experiment(name, command, _wx(name), dict(steps=full_steps),
-                      None if quick_steps is None else dict(steps=quick_steps), reduction=red,
-                      expected_s=expected, quick_expected_s=quick_expected,
-                      skip_reason=f"{NOT_QUICK} (the 1 kHz walking loop compiles for about five minutes per "
-                                  "controller on two cores)")
+# ------------------------------------------------------------------ hzd, reduced (--quick) runs
+# The reduced walks use two compiled loops in all (PD + feedforward, and the I/O-linearising
+# HZD controller; the loop's gait, push, impact scale, lean and sensing are traced arguments),
+# so the six experiments together compile about as much as two single walks.
+QUICK_WALK_STEPS = 6
+QUICK_PUSH_STEP, QUICK_PUSH_STEPS = 3, 9
+QUICK_ETAS = (1.0, 0.98, 0.966)
+QUICK_ETA_STEPS, QUICK_ETA_AVERAGE = 12, 5
+QUICK_LEAN_STEPS, QUICK_FAST_STEPS = 10, 5
+
+
+def _quick_walk(name):
+    def run(args, out, progress):
+        from bipedlab.robots.mabel.walking import experiments as wx
+
+        return wx.run(name, steps=args["steps"], out=out, progress=progress)
+    return run
+
+
+def _quick_push(args, out, progress):
+    """Exp. 2 reduced: the paper's two pushes under PD + feedforward only, at step
+    QUICK_PUSH_STEP of a QUICK_PUSH_STEPS-step walk; the reference is the unpushed walk's speed
+    over the same steps."""
+    from bipedlab.robots.mabel.walking import experiments as wx
+    from bipedlab.robots.mabel.walking import study as wm
+
+    n, k = args["steps"], args["push_step"]
+    base = wm.walk("nominal", "pdff", n, progress=progress)
+    ref = float(np.mean(base["speed_per_step"][1:]))
+    runs = []
+    for force in wx.PUSHES:
+        r = wm.walk("nominal", "pdff", n, push=f"{force}@{k}", progress=progress,
+                    out=f"{out}/pdff_{force:+.0f}N" if out else None)
+        peak, back = wx._recovery(r["speed_per_step"], k, ref)
+        runs.append(dict(controller="pdff", force_n=force, step=k, fell=r["fell"], steps_completed=r["steps_completed"],
+                         unpushed_speed_mps=ref, speed_per_step=r["speed_per_step"], peak_speed_change=peak,
+                         steps_to_recover=back))
+    return dict(experiment="push", runs=runs, reduced=True)
+
+
+def _quick_tracking(args, out, progress):
+    """Exps. 4-5 reduced: PD + feedforward and I/O linearisation (not the decentralised form)."""
+    from bipedlab.robots.mabel.walking import study as wm
+
+    rows = {}
+    for c in ("pdff", "iolin"):
+        r = wm.walk("nominal", c, args["steps"], progress=progress, out=(f"{out}/{c}" if out else None))
+        rows[c] = dict(fell=r["fell"], steps_completed=r["steps_completed"], speed_mps=r["speed_mps"],
+                       tracking_rms_deg=r["tracking_rms_deg"], tracking_peak_deg=r["tracking_peak_deg"],
+                       peak_torques_nm=r["peak_torques_nm"], cmt=r["cmt"])
+    return dict(experiment="tracking", controllers=rows, reduced=True)
+
+
+def _quick_impact_scaling(args, out, progress):
+    """Table I reduced: three values of eta under the compliant-HZD controller with exact sensing
+    (as the full run), the steady speed averaged over the last QUICK_ETA_AVERAGE steps."""
+    from bipedlab.robots.mabel.walking import study as wm
+
+    rows = []
+    for eta in args["etas"]:
+        r = wm.walk("nominal", "iolin", args["steps"], eta=eta, sensing="ideal", progress=progress)
+        sp = r["speed_per_step"]
+        ok = not r["fell"] and len(sp) >= args["average"]
+        rows.append(dict(eta=eta, paper_speed_mps=wm.PAPER["impact_scaling"][eta], fell=r["fell"],
+                         steps_completed=r["steps_completed"],
+                         steady_speed_mps=float(np.mean(sp[-args["average"]:])) if ok else None))
+    return dict(experiment="impact-scaling", controller="iolin", sensing="ideal", rows=rows, reduced=True)
+
+
+def _quick_fast(args, out, progress):
+    """Exp. 5 reduced: the same lean (0.7 rad) in fewer increments, then a few steps."""
+    from bipedlab.robots.mabel.walking import experiments as wx
+    from bipedlab.robots.mabel.walking import study as wm
+
+    ramp = args["lean_steps"]
+    r = wm.walk("nominal", "iolin", ramp + args["steps"], out=out, progress=progress, sensing=wx.FAST_SENSING,
+                lean_deg=wx.FAST_LEAN_DEG, lean_steps=ramp)
+    r.update(wx._after_ramp(r, ramp))
+    r.update(experiment="fast", reduced=True)
+    return r
+
+
+_QUICK = {"nominal": _quick_walk("nominal"), "efficient": _quick_walk("efficient"), "push": _quick_push,
+          "tracking": _quick_tracking, "impact-scaling": _quick_impact_scaling, "fast": _quick_fast}
+
+
+def _walk_exp(name, command, full_steps, quick_args, reduction, expected, quick_expected):
+    return Experiment(name, command, _wx(name), dict(steps=full_steps), dict(quick_args, quick=True),
+                      reduction=reduction, expected_s=expected, quick_expected_s=quick_expected)
 
 
 HZD_EXPERIMENTS = (
@@ -186,12 +270,26 @@ HZD_EXPERIMENTS = (
                dict(source="shipped"), reduction="reads the shipped gait files (designed by optimize mabel, with their "
                "stored Poincaré eigenvalues) instead of optimising and linearising again", expected_s=900,
                quick_expected_s=35),
-    _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, None, 420, 0),
-    _walk_exp("push", "bipedlab experiment mabel push", 30, None, 300, 0),
-    _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, None, 200, 0),
-    _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, None, 400, 0),
-    _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40, None, 500, 0),
-    _walk_exp("fast", "bipedlab experiment mabel fast", 100, None, 500, 0),
+    _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, dict(steps=QUICK_WALK_STEPS),
+              f"{QUICK_WALK_STEPS} steps instead of 100", 420, 60),
+    _walk_exp("push", "bipedlab experiment mabel push", 30,
+              dict(steps=QUICK_PUSH_STEPS, push_step=QUICK_PUSH_STEP),
+              f"the two pushes under PD + feedforward only, in step {QUICK_PUSH_STEP} of {QUICK_PUSH_STEPS}-step walks "
+              "(instead of step 10 of 30, and the decentralised controller's pushes)", 300, 30),
+    _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, dict(steps=QUICK_WALK_STEPS),
+              f"{QUICK_WALK_STEPS} steps instead of 100", 200, 12),
+    _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, dict(steps=QUICK_WALK_STEPS),
+              f"PD + feedforward and I/O linearisation only (not the decentralised form), {QUICK_WALK_STEPS} steps "
+              "instead of 30", 400, 70),
+    _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40,
+              dict(steps=QUICK_ETA_STEPS, etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE),
+              f"eta in {{{', '.join(f'{e:g}' for e in QUICK_ETAS)}}} only, {QUICK_ETA_STEPS} steps each with the speed "
+              f"of the last {QUICK_ETA_AVERAGE} (instead of six values, 40 steps, the last 10); no PD + feedforward "
+              "column", 500, 35),
+    _walk_exp("fast", "bipedlab experiment mabel fast", 100,
+              dict(steps=QUICK_FAST_STEPS, lean_steps=QUICK_LEAN_STEPS),
+              f"the 0.7 rad lean in {QUICK_LEAN_STEPS} increments instead of 30, then {QUICK_FAST_STEPS} steps instead "
+              "of 100; no comparison runs", 500, 25),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
