@@ -316,9 +316,9 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         runs = {(r["controller"], r["force_n"]): r for r in push["runs"]}
         f, b = runs.get(("pdff", 78.0)), runs.get(("pdff", -71.0))
         out["push_forward_change"] = Skip("fell after the push") if dig(f, "fell") else dig(f, "peak_speed_change")
-        out["push_forward_steps"] = Skip("fell after the push") if dig(f, "fell") else dig(f, "steps_to_recover")
+        out["push_forward_steps"] = Skip("fell after the push") if dig(f, "fell") else _recovered(f, push)
         out["push_backward_change"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
-        out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "steps_to_recover")
+        out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else _recovered(b, push)
         out["push_forward_survived"] = not dig(f, "fell", default=True)
     else:
         for k in ("push_forward_change", "push_forward_steps", "push_backward_change", "push_backward_steps",
@@ -339,6 +339,17 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     out["fast_sustained_mps"] = dig(fast, "speed_after_lean_mps") if fast else skip
     out["fast_top_mps"] = (max(fast["speed_per_step"]) if fast and fast.get("speed_per_step") else skip)
     return out
+
+
+def _recovered(run: dict, push: dict):
+    """Steps until the speed is back within 2 % of the unpushed one, or a Skip saying that it
+    was not back within the steps simulated."""
+    back = dig(run, "steps_to_recover")
+    if back is not None:
+        return back
+    after = len(dig(run, "speed_per_step", default=[])) - int(dig(run, "step", default=0))
+    return Skip(f"not back within 2 % of the unpushed speed in the {after} steps simulated after the push"
+                + (" (--quick)" if push.get("reduced") else ""))
 
 
 def _output_name(rec, short: str):
