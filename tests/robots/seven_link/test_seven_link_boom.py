@@ -9,6 +9,8 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
+from helpers import expect_usage_error
+
 from bipedlab.contact import rigid as aset
 from bipedlab.robots.seven_link import contact as sc
 from bipedlab.robots.seven_link import robot as sl
@@ -127,3 +129,7 @@ def test_short_boom_walk_record():
     assert boom["speed_mps"] < planar["speed_mps"]
     assert boom["max_impact_energy_change_j"] <= 1e-9
     assert boom["max_constraint_drift"]["position_after_projection_m"] < 1e-8
+
+
+def test_cli_rejects_an_unknown_setup(capsys):
+    expect_usage_error(["walk", "seven-link", "--setup", "treadmill"], capsys, "--setup")

@@ -121,11 +121,14 @@ def setup_parts(without=()) -> dict:
 
 
 def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
-             speed: float = START_SPEED, setup: str = "planar", without=()):
+             speed: float = START_SPEED, setup: str = "planar", without=(), boom_options: dict | None = None,
+             knee_lock_torque: float = su.KNEE_LOCK_TORQUE):
     """Simulate the closed loop; returns the raw :class:`~bipedlab.robots.seven_link.contact.SimResult`.
     setup: "planar" (the planar model) or "boom" (the plant of
     :mod:`bipedlab.robots.seven_link.setup`, less the parts named in ``without``; the
-    controller keeps the planar model, the knee lock torque is the controller's)."""
+    controller keeps the planar model, the knee lock torque is the controller's);
+    boom_options: keyword arguments of :func:`bipedlab.robots.seven_link.setup.boom` (the
+    sensitivity to its assumed sizes)."""
     r = sl.model()
     if x0 is None:
         x0, active0 = initial_condition(r, speed)
@@ -136,10 +139,10 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
     if setup != "boom":
         raise ValueError(f"seven-link: setup must be one of {list(su.SETUPS)}, got {setup!r}")
     on = setup_parts(without)
-    g = gains(params).replace(knee_lock_torque=jnp.asarray(su.KNEE_LOCK_TORQUE * on["knee_lock"], jnp.float64))
+    g = gains(params).replace(knee_lock_torque=jnp.asarray(knee_lock_torque * on["knee_lock"], jnp.float64))
     p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
     plant = su.plant(su.boom(boom_inertia=on["boom_inertia"], foot_turning=on["foot_turning"],
-                             drive_friction=on["drive_friction"]))
+                             drive_friction=on["drive_friction"], **(boom_options or {})))
     return _setup_simulator(settings_for(steps))(x0, active0, p, ctl.initial_state(x0), plant)
 
 
