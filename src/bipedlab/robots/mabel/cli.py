@@ -22,6 +22,20 @@ PUSH_STEP = 10                     # the push experiment's step (experiments.PUS
 STEADY_STEPS = 10                  # impact-scaling: steady speed over the last 10 steps
 
 
+#: the shipped ``fast`` gait (designed at 1.52 m/s) under each (controller, sensing) pairing of
+#: ``walk mabel``: (touchdowns before the fall, time of the fall in s), measured on the closed
+#: loop (:func:`bipedlab.robots.mabel.walking.study.walk`, 5 steps asked). In every pairing the
+#: last touchdown is the swing toe striking the ground behind the stance toe (0.03-0.05 s into
+#: a step, the first step under PD + feedforward); then the hip drops below the walking range
+#: (PD + feedforward) or the torso pitches forward past 75 deg (I/O linearisation).
+FAST_GAIT_FALLS = {
+    ("pdff", "encoders"): (2, 0.535), ("pdff", "observer"): (2, 0.569), ("pdff", "ideal"): (2, 0.539),
+    ("iolin", "encoders"): (2, 0.540), ("iolin", "observer"): (2, 0.541), ("iolin", "ideal"): (1, 0.252),
+    ("decentralized", "encoders"): (3, 0.785), ("decentralized", "observer"): (2, 0.551),
+    ("decentralized", "ideal"): (1, 0.250),
+}
+
+
 def _out(p, what: str = "figures (PNG) and data (NPZ)") -> None:
     add_out(p, what)
 
@@ -46,6 +60,10 @@ def _optimize_arguments(p) -> None:
                    help="prescribe the step length in m (e.g. 0.575, the paper's nominal gait)")
     p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
+    p.add_argument("--design-model", choices=["full", "paper"], default="full",
+                   help="full: motor friction (Table V) and spring damping in the zero dynamics, the model the "
+                        "shipped gaits were designed with (default for now); paper: the HZD paper's design model, "
+                        "rigid cables without friction or spring damping")
     p.add_argument("--no-poincare", action="store_true", help="skip the Poincaré analysis")
     add_save(p, "the gait (for walk --gait FILE)")
     _out(p)
@@ -55,7 +73,7 @@ def _optimize(args, progress):
     from bipedlab.robots.mabel.walking import study as wm
 
     rec = wm.optimize(args.speed, args.cost, save=args.save, out=args.out, poincare_check=not args.no_poincare,
-                      progress=progress, step_length=args.step_length)
+                      progress=progress, step_length=args.step_length, design_model=args.design_model)
     return rec, wm.summary_optimize
 
 
@@ -91,6 +109,13 @@ def _walk_validate(args) -> None:
         raise UsageError("--lean-steps applies with a non-zero --lean")
     if args.gait is not None and args.gait not in GAITS and not os.path.isfile(args.gait):
         raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(GAITS)}) nor a file")
+    pairing = (args.controller or "pdff", args.sensing)
+    if args.gait == "fast" and pairing in FAST_GAIT_FALLS:
+        steps, t = FAST_GAIT_FALLS[pairing]
+        raise UsageError(f"--gait fast: the shipped fast gait falls under every controller in this model "
+                         f"({pairing[0]} with {pairing[1]} sensing: its swing toe strikes the ground behind the "
+                         f"stance toe in step {steps} and it falls {t:.2f} s in, in step {steps + 1}); for fast "
+                         f"walking lean the nominal gait forward (experiment mabel fast)")
 
 
 def _walk(args, progress):

@@ -129,9 +129,14 @@ def regress_feedforward(thetas, us, phases, bounds, order: int = 5):
     return beta
 
 
+@jax.jit
+def _decoupling_matrix(m, vc, z):
+    return decoupling(m, vc, vcm.MC, z)[2]
+
+
 def output_signs(m, vc, z):
     """Sign of each output's own motor in the decoupling matrix at z (phase MC)."""
-    A = decoupling(m, vc, vcm.MC, z)[2]
+    A = _decoupling_matrix(m, vc, z)
     return np.sign(np.asarray(A)[np.arange(4), list(ACTUATOR_OF_OUTPUT)])
 
 

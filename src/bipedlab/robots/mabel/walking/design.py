@@ -29,6 +29,7 @@ Jacobians solves the NLP.
 from __future__ import annotations
 
 import dataclasses
+import functools
 import time
 
 import jax
@@ -178,11 +179,25 @@ def initial_guess(speed: float = 0.8) -> np.ndarray:
         -0.03, 0.10, 0.10, -0.02, -0.02, np.pi - 0.1, np.pi + 0.1, 0.5, 0.5])
 
 
-def design_model(m=None):
+#: design models: ``full``, the walking model with motor friction (Table V of the
+#: identification paper) and spring damping in the zero dynamics (the shipped gaits were
+#: designed with it); ``paper``, the HZD paper's design model: rigid cables and no drivetrain
+#: dissipation. The paper's zero dynamics (eq. 36) carries the spring torque and no friction
+#: term, it gives no friction or damping coefficients, its Section VI-C names friction (with
+#: cable stretch) as what raised the realised c_mt above the designed one, and the spring
+#: damping was identified later, from the hopping experiments (identification paper, Table VI).
+DESIGN_MODELS = ("full", "paper")
+
+
+def design_model(m=None, kind: str = "full"):
     """The walking model used for design: the hard stop's stiffening and damping are left out
     (the spring stays compressed along a designed step, an inequality constraint), so a trial
-    point that pushes the pulley into the stop does not make the zero dynamics stiff."""
-    return wk.without_stop(wk.walking_model() if m is None else m)
+    point that pushes the pulley into the stop does not make the zero dynamics stiff; ``kind``
+    ``paper`` also leaves out motor friction and spring damping (:data:`DESIGN_MODELS`)."""
+    if kind not in DESIGN_MODELS:
+        raise ValueError(f"design model must be one of {', '.join(DESIGN_MODELS)}, got {kind!r}")
+    m = wk.without_stop(wk.walking_model() if m is None else m)
+    return wk.without_losses(m) if kind == "paper" else m
 
 
 def _scalar_cost(fig, cost):
@@ -228,23 +243,25 @@ def _functions(m, speed, cost, window):
             lambda x: get(x)[1][1:1 + ne], lambda x: get(x)[0][1 + ne:], lambda x: get(x)[1][1 + ne:])
 
 
-def _problem(speed, cost, model=None, window=(0.0, MAX_STEP)):
-    return _functions(design_model(model), speed, cost, window)
+def _problem(speed, cost, model=None, window=(0.0, MAX_STEP), kind="full"):
+    return _functions(design_model(model, kind), speed, cost, window)
 
 
-def compile_problem(speed: float, cost: str, model=None) -> None:
+def compile_problem(speed: float, cost: str, model=None, kind: str = "full") -> None:
     """Compile the NLP's functions (one call at the hand-set guess), so that a later
-    :func:`optimize` measures the solve alone."""
-    _problem(speed, cost, model)[0](initial_guess(speed))
+    :func:`optimize` measures the solve alone (the model is an argument of the compiled
+    functions, so every design model shares the program)."""
+    _problem(speed, cost, model, kind=kind)[0](initial_guess(speed))
 
 
 def optimize(speed: float = 0.8, cost: str = "torque", x0=None, maxiter: int = 500, ftol: float = 1e-9,
-             model=None, min_step: float = 0.0, max_step: float = MAX_STEP):
-    """Solve the gait-design NLP from x0 (default: :func:`initial_guess`), the step length
-    kept within [min_step, max_step] (m; equal bounds prescribe it); returns (Design, info)
-    with info: success, message, iterations, wall_s, eq_residual, ineq_violation."""
-    m = design_model(model)
-    f, fj, e, ej, i, ij = _problem(speed, cost, model, (min_step, max_step))
+             model=None, min_step: float = 0.0, max_step: float = MAX_STEP, kind: str = "full"):
+    """Solve the gait-design NLP from x0 (default: :func:`initial_guess`) on the design model
+    ``kind`` (:data:`DESIGN_MODELS`), the step length kept within [min_step, max_step] (m;
+    equal bounds prescribe it); returns (Design, info) with info: success, message,
+    iterations, wall_s, eq_residual, ineq_violation."""
+    m = design_model(model, kind)
+    f, fj, e, ej, i, ij = _problem(speed, cost, model, (min_step, max_step), kind)
     x0 = initial_guess(speed) if x0 is None else np.asarray(x0, float)
     t0 = time.perf_counter()
     x0 = feasible_start(f, e, ej, i, ij, x0)
@@ -297,12 +314,18 @@ def make_design(m, x, speed) -> Design:
 FINE_NODES = (16, 48, 48, 40)
 
 
+@functools.partial(jax.jit, static_argnames="nodes")
+def _orbit_samples(m, vc, zp, nodes):
+    w0 = jnp.concatenate([jnp.stack([zp[2], vcm.theta_rate(zp[6:]), zp[8]]), jnp.zeros(5)])
+    return run_step(m, vc, w0, nodes)[1]
+
+
 def orbit(m, design: Design, nodes=FINE_NODES):
-    """The designed orbit sampled on a fine theta grid: (thetas, w, u*, z, phases, bounds)."""
+    """The designed orbit sampled on a fine theta grid: (thetas, w, u*, z, phases, bounds)
+    (one compiled program per node grid; the model and the design are its arguments)."""
     vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
     zp = jnp.asarray(design.z_plus)
-    w0 = jnp.concatenate([jnp.stack([zp[2], vcm.theta_rate(zp[6:]), zp[8]]), jnp.zeros(5)])
-    _, (th, w, u, qs, qds), starts = run_step(m, vc, w0, nodes)
+    th, w, u, qs, qds = _orbit_samples(m, vc, zp, tuple(nodes))
     phases = np.repeat(np.arange(4), nodes)
     bounds = np.array([[vc.theta_plus, vc.theta_mc], [vc.theta_mc, vc.theta_sc], [vc.theta_sc, vc.theta_si],
                        [vc.theta_si, vc.theta_minus]], float)
@@ -316,6 +339,14 @@ def controller_gains(m, design: Design, limit=None):
     beta = ctl.regress_feedforward(th, u, phases, bounds)
     signs = ctl.output_signs(m, jax.tree_util.tree_map(jnp.asarray, design.vc), jnp.asarray(design.z_plus))
     return ctl.default_gains(beta, bounds, signs, limit)
+
+
+def torso_travel(m, design: Design) -> float:
+    """Range of the torso angle q_Tor over the designed step (rad): the orbit sampled on the
+    fine grid, and the pre-impact state."""
+    z = orbit(m, design)[3]
+    tor = np.concatenate([z[:, 5], [np.asarray(design.z_minus)[5]]])
+    return float(np.max(tor) - np.min(tor))
 
 
 def section_state(m, design: Design):

@@ -1,9 +1,11 @@
 """The experiments of the compliant-HZD paper (Sections V-VI) as simulation studies.
 
 - ``nominal`` (Exp. 1): the nominal gait under PD + feedforward, 1 kHz, 14-bit encoders.
-- ``push`` (Exp. 2): about 78 N forward and 71 N backward on the hip over the second half of a
-  step under PD + feedforward, and smaller pushes under the decentralised HZD controller; speed
-  per step, the peak change and the steps back to within 2 % of the unpushed speed.
+- ``push`` (Exp. 2): the forward and backward forces on the hip, over the second half of a step,
+  that change the speed by +45 % and -45 % as the paper's pushes did on the robot, found by a
+  bracketing search under PD + feedforward, and the recovery under PD + feedforward and the
+  decentralised HZD controller at those forces; beside them the paper's estimated forces
+  (78 N / -71 N) under PD + FF and smaller pushes under the HZD controller.
 - ``efficient`` (Exp. 3): the c_mt-optimal gait; realised versus designed c_mt and the power at
   the stance leg shape (motor and spring).
 - ``tracking`` (Exps. 4-5): the nominal gait under PD + feedforward, I/O linearisation with
@@ -24,6 +26,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.robots.mabel.walking import design as md
+from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
 from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import study as wm
@@ -52,31 +55,172 @@ def _recovery(speeds, push_step, reference, tol=0.02):
     return float(rel[k]), (int(inside[0]) + k if inside.size else None)
 
 
+#: the speed changes the paper's pushes caused on the robot (Exp. 2)
+TARGET_CHANGES = (0.45, -0.45)
+#: the search stops when the peak speed change is within this of its target (fraction of the
+#: unpushed speed): finer than the paper's two-digit "45 %"
+SEARCH_TOL = 0.01
+#: walks allowed per search (the push force enters the compiled loop as data, so each walk
+#: reuses the compiled program)
+SEARCH_WALKS = 10
+#: steps after the pushed one that a search walk covers (the peak change comes within two)
+SEARCH_AFTER = 3
+#: recovery: steps after the pushed one until the step speed is back within 5 % of unpushed
+RECOVERY_TOL = 0.05
+
+
+def steps_to_settle(speeds, push_step, reference, tol=RECOVERY_TOL):
+    """Steps after the pushed one until the step speed stays within ``tol`` (fraction) of
+    ``reference`` for the rest of the walk; None if the last step is still outside."""
+    rel = np.abs(np.asarray(speeds[push_step:], float) / reference - 1.0)
+    if rel.size == 0 or rel[-1] > tol:
+        return None
+    outside = np.nonzero(rel > tol)[0]
+    return int(outside[-1]) + 1 if outside.size else 0
+
+
+def peak_change(speeds, push_step, reference, direction):
+    """The largest relative speed change in the push's direction (+1 forward, -1 backward) over
+    the steps from the pushed one on; None before any of them completed."""
+    after = np.asarray(speeds[push_step:], float)
+    if after.size == 0:
+        return None
+    rel = after / reference - 1.0
+    return float(rel[np.argmax(direction * rel)])
+
+
+def bracket_force(change_of, target, f0, tol=SEARCH_TOL, max_walks=SEARCH_WALKS, grow=3.0):
+    """The force whose peak speed change is within ``tol`` of ``target``, by a bracketing search
+    on change(force), with change(0) = 0 (no push).
+
+    ``change_of(force)`` walks once and returns the peak change, or None when the walk fell
+    before a step after the push completed (counted as beyond the target). Starting from f0
+    (same sign as the target), the secant through the origin extrapolates (by at most ``grow``
+    times) until the target is bracketed; then regula falsi with the Illinois modification,
+    bisection across a None. Returns (force, change, walks [(force, change)], converged)."""
+    walks = []
+    lo, g_lo = 0.0, -target  # g = change - target; no push: no change
+    hi, g_hi = None, None
+    f = f0
+    side = 0
+    for _ in range(max_walks):
+        c = change_of(f)
+        walks.append((float(f), c))
+        if c is not None and abs(c - target) <= tol:
+            return float(f), c, walks, True
+        g = None if c is None else c - target
+        beyond = g is None or np.sign(g) == np.sign(target)
+        if beyond:
+            hi, g_hi = f, g
+            if side == +1 and g_lo is not None:
+                g_lo = 0.5 * g_lo
+            side = +1
+        else:
+            lo, g_lo = f, g
+            if side == -1 and g_hi is not None:
+                g_hi = 0.5 * g_hi
+            side = -1
+        if hi is None:  # not yet bracketed: secant through the origin, capped
+            f = lo * min(grow, max(1.1, target / c)) if c else lo * grow
+        elif g_hi is None:
+            f = 0.5 * (lo + hi)
+        else:
+            f = lo - g_lo * (hi - lo) / (g_hi - g_lo)
+    best = min((w for w in walks if w[1] is not None), key=lambda w: abs(w[1] - target), default=(float(f0), None))
+    return best[0], best[1], walks, False
+
+
 def nominal(steps, progress, out):
     r = _walk("nominal", "pdff", steps or 100, progress, out=out)
     r["paper"] = dict(designed_speed_mps=0.8, experimental_speed_mps=1.0, steps=78)
     return r
 
 
+def _push_row(r, controller, force, push_step, ref, direction):
+    """One pushed walk's record: the peak change in the push's direction (over the steps
+    completed), the recovery ``steps_to_recover_5pct`` (:func:`steps_to_settle` within
+    RECOVERY_TOL; None after a fall) and the toe's contact record (friction cone, pulling)."""
+    sp = r["speed_per_step"]
+    peak = peak_change(sp, push_step, ref, direction)
+    back = steps_to_settle(sp, push_step, ref)
+    keys = ("friction_cone_exceeded", "max_friction_ratio", "friction_cone_exceeded_step", "toe_pulled",
+            "toe_pulled_step", "min_normal_force_n")
+    return dict(controller=controller, force_n=float(force), step=push_step, fell=r["fell"],
+                steps_completed=r["steps_completed"], unpushed_speed_mps=ref, speed_per_step=sp,
+                speed_change=peak, steps_to_recover_5pct=None if r["fell"] else back,
+                **{k: r[k] for k in keys})
+
+
+def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progress=None, tol=SEARCH_TOL,
+                max_walks=SEARCH_WALKS):
+    """The force (N, + forward) over the second half of step ``push_step`` whose peak speed
+    change is ``target`` (fraction of ``ref``) under ``controller``, by :func:`bracket_force`
+    on walks of the pushed step and SEARCH_AFTER more; then one walk of ``steps`` at that force
+    for the recovery. Returns the search record."""
+    direction = np.sign(target)
+    fallen = {}
+
+    def change_of(force):
+        r = _walk("nominal", controller, push_step + 1 + SEARCH_AFTER, None, push=f"{force!r}@{push_step}")
+        fallen[float(force)] = (r["fell"], r["steps_completed"])
+        return peak_change(r["speed_per_step"], push_step, ref, direction)
+
+    force, change, walks, ok = bracket_force(change_of, target, f0, tol, max_walks)
+    r = _walk("nominal", controller, steps, progress, push=f"{force!r}@{push_step}")
+    row = _push_row(r, controller, force, push_step, ref, direction)
+    return dict(target_change=target, converged=ok, tolerance=tol, walks=[
+        dict(force_n=f, speed_change=c, fell=fallen[f][0], steps_completed=fallen[f][1]) for f, c in walks], **row)
+
+
 def push(steps, progress, out):
-    """Exp. 2: the paper's estimated forces (+78 N / -71 N over the second half of step
-    PUSH_STEP) under PD + feedforward, the experiment's controller; and, since in this model
-    PD + FF does not survive forward pushes, pushes of ``HZD_PUSHES`` under the decentralised
-    compliant-HZD controller. Each push is a separate walk; the reference is the same
-    controller's unpushed speed."""
+    """Exp. 2. The forces that change the speed by TARGET_CHANGES (+45 % / -45 %, as the paper's
+    pushes did on the robot) over the second half of step PUSH_STEP, searched from the paper's
+    estimates under PD + feedforward, the experiment's controller (``force_for_plus_45pct_n``,
+    ``force_for_minus_45pct_n``), and from HZD_PUSHES under the decentralised HZD controller;
+    each search's record has the change reached, the recovery over ``steps`` and the toe's
+    contact record; ``at_pdff_forces`` walks the HZD controller at PD + FF's forces. Then the
+    paper's estimated forces (PUSHES) under PD + FF, and HZD_PUSHES under the HZD controller.
+    The reference is each controller's unpushed speed (mean over steps 5 on).
+
+    The stance model pins the toe: a push can ask the ground for more friction than MU times
+    the normal force, or pull on it, which the record reports (``friction_cone_exceeded``,
+    ``max_friction_ratio``, ``toe_pulled``) but does not count as a fall; a fall is the hip or
+    torso leaving the walking range, or the robot rolling back over its stance toe
+    (:func:`~bipedlab.robots.mabel.walking.loop.fell`). Making the foot slip is outside this
+    model. A run that falls keeps the speed change of the steps it completed."""
     steps = steps or 30
+    refs = {}
+    for controller in ("pdff", "decentralized"):
+        base = _walk("nominal", controller, steps, progress)
+        refs[controller] = float(np.mean(base["speed_per_step"][5:]))
+    say = progress or (lambda msg: None)
+    searches = []
+    for controller, starts in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
+        for target, f0 in zip(TARGET_CHANGES, starts):
+            say(f"push: searching the force for {100 * target:+.0f} % under {controller}")
+            searches.append(search_push(controller, target, f0, refs[controller], steps, progress=progress))
+    plus, minus = searches[:2]
+    at_pdff = []
+    for x in (plus, minus):
+        r = _walk("nominal", "decentralized", steps, progress, push=f"{x['force_n']!r}@{PUSH_STEP}")
+        at_pdff.append(dict(_push_row(r, "decentralized", x["force_n"], PUSH_STEP, refs["decentralized"],
+                                      np.sign(x["target_change"])), target_change=x["target_change"]))
     runs = []
     for controller, pushes in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
-        base = _walk("nominal", controller, steps, progress)
-        ref = float(np.mean(base["speed_per_step"][5:]))
+        ref = refs[controller]
         for force in pushes:
             r = _walk("nominal", controller, steps, progress, push=f"{force}@{PUSH_STEP}",
                       out=f"{out}/{controller}_{force:+.0f}N" if out else None)
+            row = _push_row(r, controller, force, PUSH_STEP, ref, np.sign(force))
             peak, back = _recovery(r["speed_per_step"], PUSH_STEP, ref)
-            runs.append(dict(controller=controller, force_n=force, step=PUSH_STEP, fell=r["fell"],
-                             steps_completed=r["steps_completed"], unpushed_speed_mps=ref,
-                             speed_per_step=r["speed_per_step"], peak_speed_change=peak, steps_to_recover=back))
-    return dict(experiment="push", runs=runs,
+            # and as before: the largest change either way, the steps until first back within 2 %
+            row.update(peak_speed_change=peak, steps_to_recover=back)
+            runs.append(row)
+    return dict(experiment="push", push_step=PUSH_STEP, recovery_tolerance=RECOVERY_TOL,
+                unpushed_speed_mps=refs,
+                force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],
+                speed_change_at_plus_force=plus["speed_change"], speed_change_at_minus_force=minus["speed_change"],
+                searches=searches, at_pdff_forces=at_pdff, runs=runs,
                 paper=dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
                            backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3)))
 
@@ -233,20 +377,39 @@ def summary(r: dict) -> str:
                      f"paper 0.0385 / 0.0452, realised on the robot 0.14")
         return text
     if name == "push":
+        def pct(v):
+            return "n/a" if v is None else f"{100 * v:+.1f} %"
+
+        def end(x):
+            if x["fell"]:
+                return f"FELL in step {x['steps_completed']}"
+            back = x["steps_to_recover_5pct"]
+            text = "not settled within 5 %" if back is None else f"within 5 % from {back} steps on"
+            if x["friction_cone_exceeded"]:
+                text += (f"; friction ratio {x['max_friction_ratio']:.2f} > {MU_TOE} "
+                         f"(step {x['friction_cone_exceeded_step']})")
+            if x["toe_pulled"]:
+                text += f"; toe pulled on the ground (step {x['toe_pulled_step']})"
+            return text
+
         lines = []
+        for x in r["searches"]:
+            lines.append(f"{x['controller']:>13}: force for {pct(x['target_change'])}: {x['force_n']:+.1f} N "
+                         f"({len(x['walks'])} walks{'' if x['converged'] else ', NOT converged'}), speed change "
+                         f"{pct(x['speed_change'])}, {end(x)}")
+        for x in r["at_pdff_forces"]:
+            lines.append(f"{x['controller']:>13} push {x['force_n']:+.1f} N at step {x['step']}: speed change "
+                         f"{pct(x['speed_change'])}, {end(x)}")
         for x in r["runs"]:
-            pk = "n/a" if x["peak_speed_change"] is None else f"{100 * x['peak_speed_change']:+.0f} %"
-            end = f"FELL in step {x['steps_completed']}" if x["fell"] else \
-                f"back within 2 % after {x['steps_to_recover']} steps"
             lines.append(f"{x['controller']:>13} push {x['force_n']:+.0f} N at step {x['step']} (unpushed "
-                         f"{x['unpushed_speed_mps']:.3f} m/s): peak speed change {pk}, {end}")
+                         f"{x['unpushed_speed_mps']:.3f} m/s): speed change {pct(x['speed_change'])}, {end(x)}")
         lines.append("paper: +45 % recovering over ~10 steps (78 N), -45 % over ~3 (71 N)")
         return "\n".join(lines)
     if name == "tracking":
         lines = []
         for c, x in r["controllers"].items():
             lines.append(f"{c:>13}: " + ", ".join(f"{k} {v:.2f}" for k, v in x["tracking_rms_deg"].items())
-                         + f" deg rms; speed {x['speed_mps']:.3f} m/s{' FELL' if x['fell'] else ''}")
+                         + (" deg rms; FELL" if x["fell"] else f" deg rms; speed {x['speed_mps']:.3f} m/s"))
         lines.append("paper (experiment): torso 1.44 -> 0.89 deg, mLS_st 29.82 -> 0.28 deg rms (PD+FF -> HZD)")
         return "\n".join(lines)
     if name == "impact-scaling":

@@ -113,6 +113,16 @@ def without_stop(m: Mabel) -> Mabel:
     return m.replace(drive=m.drive.replace(kd1=z, kvd1=z, kvd2=z))
 
 
+def without_losses(m: Mabel) -> Mabel:
+    """The model with the drivetrain's dissipation left out: no viscous motor friction (Table V
+    of the identification paper) and no spring damping (Kd_B), the stance dynamics then
+    conservative apart from the motors' work. With the hard stop also out
+    (:func:`without_stop`) this is the HZD paper's design model (``optimize mabel
+    --design-model paper``)."""
+    d = m.drive
+    return m.replace(drive=d.replace(friction=jnp.zeros_like(d.friction), spring_d=jnp.zeros_like(d.spring_d)))
+
+
 def constrained(m: Mabel, q, qd, u, f_hip=None):
     """(qdd_e, lam) of the stance dynamics at (q_e, qd_e) under motor torques u."""
     D = cp.mass_matrix(m.body, q)

@@ -15,6 +15,7 @@ ship with the package.
 """
 from __future__ import annotations
 
+import functools
 import time
 
 from pathlib import Path
@@ -150,8 +151,9 @@ def _start_point(speed: float, cost: str, shipped_only: bool = False):
 STEP_CONTINUATION = 0.03
 
 
-def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None):
-    """Optimise (torque cost first; for c_mt, continue from the torque optimum). With
+def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None, design_model: str = "full"):
+    """Optimise (torque cost first; for c_mt, continue from the torque optimum) on the design
+    model ``design_model`` (:data:`~bipedlab.robots.mabel.walking.design.DESIGN_MODELS`). With
     ``step_length`` (m) the step is prescribed, reached from the nearest shipped gait by
     continuation in increments of at most STEP_CONTINUATION. Returns (design, info with warm
     and cold times)."""
@@ -165,9 +167,9 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
         lengths = list(np.linspace(L0, step_length, n + 1)[1:])
     t0 = time.perf_counter()
     say(f"compiling the gait-design problem (speed {speed} m/s); start: {start}")
-    md.compile_problem(speed, "torque")
+    md.compile_problem(speed, "torque", kind=design_model)
     if cost == "cmt":
-        md.compile_problem(speed, "cmt")
+        md.compile_problem(speed, "cmt", kind=design_model)
     cold_compile = time.perf_counter() - t0
     its, wall = 0, 0.0
     d = None
@@ -175,22 +177,26 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
         window = {} if L is None else dict(min_step=float(L), max_step=float(L))
         if L is not None:
             say(f"step length {L:.3f} m")
-        d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, **window)
+        d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, kind=design_model, **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     if cost == "cmt":
         say("continuing from the torque optimum with the c_mt cost")
-        d, info = md.optimize(speed, "cmt", x0=d.x, **window)
+        d, info = md.optimize(speed, "cmt", x0=d.x, kind=design_model, **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     info.update(iterations=its, warm_s=wall, cold_s=cold_compile + wall, start=start)
     return d, info
 
 
 def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None,
-             step_length=None) -> dict:
+             step_length=None, design_model: str = "full", x0=None) -> dict:
+    """Design a gait (:func:`design_gait`) on ``design_model`` and report it; the u* regression
+    of PD + feedforward follows the design model's orbit, the Poincaré analysis runs on the
+    walking model (the plant of ``walk mabel``)."""
     say = progress or (lambda msg: None)
-    d, info = design_gait(speed, cost, progress=progress, step_length=step_length)
+    d, info = design_gait(speed, cost, x0=x0, progress=progress, step_length=step_length, design_model=design_model)
     m = wk.walking_model()
-    gains = md.controller_gains(m, d)
+    m_design = m if design_model == "full" else md.design_model(m, design_model)
+    gains = md.controller_gains(m_design, d)
     pc = None
     if poincare_check:
         say("Poincaré analysis: restricted map (HZD) and full map under PD + feedforward")
@@ -206,7 +212,8 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
         optimize_warm_s=float(info["warm_s"]), optimize_cold_s=float(info["cold_s"]),
         iterations=int(info["iterations"]), converged=bool(info["success"]), solver_message=info["message"],
         equality_residual=float(info["eq_residual"]), start=info["start"],
-        prescribed_step_length_m=step_length)
+        prescribed_step_length_m=step_length, design_model=design_model,
+        torso_travel_deg=float(np.degrees(md.torso_travel(m_design, d))))
     if pc is not None:
         rec.update(max_abs_eigenvalue=pc["hzd"]["max_abs_eigenvalue"], poincare_eigenvalues=pc["hzd"]["poincare_eigenvalues"],
                    poincare_eigenvalues_complex=pc["hzd"]["poincare_eigenvalues_complex"],
@@ -229,7 +236,8 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
 def summary_optimize(r: dict) -> str:
     lines = [
         f"MABEL gait ({r['cost']} cost): speed {r['speed_mps']:.3f} m/s, step {r['step_length_m']:.3f} m, "
-        f"period {r['period_s']:.3f} s, c_mt {r['cmt']:.4f}",
+        f"period {r['period_s']:.3f} s, c_mt {r['cmt']:.4f}, torso travel {r['torso_travel_deg']:.1f} deg "
+        f"({r['design_model']} design model)",
         "peak torques (N m): " + ", ".join(f"{v:.1f}" for v in r["peak_torques_nm"]) + "  (capacity 30 / 55)",
         f"negative work at the stance leg shape done by the spring: {100 * r['negative_work_fraction_spring']:.1f} %",
     ]
@@ -271,11 +279,18 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
                     lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0))
 
 
+@functools.lru_cache(maxsize=None)
+def plant_model():
+    """The closed loop's walking model, one object per process: the compiled loop is cached per
+    (model, controller), so every walk (each push of a search, say) reuses one program."""
+    return wk.walking_model()
+
+
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
              progress=None, lean_deg: float = 0.0, lean_steps: int = 20):
     """Simulate; returns (final loop state, logs, gait record)."""
     vc, gains, rec = load_gait(gait)
-    m = wk.walking_model()
+    m = plant_model()
     setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
     cb = None
     if progress is not None:
@@ -301,12 +316,17 @@ def metrics(s, log) -> dict:
     mass = robot_mass()
     work = float(log["work"][touched[-1]]) if n else 0.0
     cmt = work / (mass * 9.81 * dist) if dist > 0 else None
-    return dict(fell=sw.fell_flag(s), steps_completed=n, distance_m=dist, duration_s=t,
-                speed_mps=dist / t if t > 0 and n else 0.0, cmt=cmt,
+    fell = sw.fell_flag(s)
+    # a fallen run has no walking speed (speed_per_step keeps the steps it completed)
+    speed = None if fell else (dist / t if t > 0 and n else 0.0)
+    end = int(s.failed_at) + 1 if fell and int(s.failed_at) >= 0 else None
+    return dict(fell=fell, fell_at_s=(end - 1) * sw.SAMPLE if end else None, steps_completed=n, distance_m=dist,
+                duration_s=t, speed_mps=speed, cmt=cmt,
                 tracking_rms_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.sqrt(np.mean(y**2, 0))))},
                 tracking_peak_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.max(np.abs(y), 0)))},
                 peak_torques_nm=[float(v) for v in np.max(np.abs(log["u"]), 0)],
-                speed_per_step=speed_steps, step_lengths_m=lengths.tolist(), step_durations_s=durations.tolist())
+                speed_per_step=speed_steps, step_lengths_m=lengths.tolist(), step_durations_s=durations.tolist(),
+                **sw.contact_record(log, end))
 
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
@@ -332,7 +352,8 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
 def summary_walk(r: dict) -> str:
     lines = [f"MABEL walking, gait {r['gait']}, controller {r['controller']} ({r['sensing']}, 1 kHz): "
              f"{'FELL after' if r['fell'] else 'no fall,'} {r['steps_completed']} steps",
-             f"speed {r['speed_mps']:.3f} m/s (designed {r['designed_speed_mps']:.3f}), c_mt "
+             ("speed n/a (fell)" if r["speed_mps"] is None else f"speed {r['speed_mps']:.3f} m/s")
+             + f" (designed {r['designed_speed_mps']:.3f}), c_mt "
              + (f"{r['cmt']:.4f}" if r["cmt"] is not None else "n/a"),
              "tracking rms (deg): " + ", ".join(f"{k} {v:.3f}" for k, v in r["tracking_rms_deg"].items())]
     if r.get("max_abs_eigenvalue") is not None:
