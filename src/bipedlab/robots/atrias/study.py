@@ -129,9 +129,10 @@ def duration(st: Settings) -> float:
 
 
 def loop_config(st: Settings, cp, log: bool = False, dt: float = ar.DT):
-    """The loop's static settings and the controller parameters for st. The delay (Sec. IV-C)
-    holds back every measurement the controller receives by whole 1 ms samples (state and
-    contact switches alike), so every force it commands acts that much late: the controller is
+    """The loop's settings (its static program and traced sensing, see
+    :func:`bipedlab.robots.atrias.loop.program`) and the controller parameters for st. The
+    delay (Sec. IV-C) holds back every measurement the controller receives by whole 1 ms
+    samples (state and contact switches alike), so every force it commands acts that much late: the controller is
     a causal function of its measurement sequence, hence delaying all its inputs by N samples
     delays all its outputs by N samples, the paper's "delay of force generation". The
     controller knows nothing of it (cp.delay = 0) unless st.delay_compensation."""
