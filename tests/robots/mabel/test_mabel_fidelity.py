@@ -91,8 +91,8 @@ def test_a_fallen_walk_reports_no_speed():
     assert r["fell"] is True and r["speed_mps"] is None
     assert len(r["speed_per_step"]) == r["steps_completed"] < 5
     assert r["step_lengths_m"][0] < 0.0 and r["step_durations_s"][0] < 0.1
-    steps, t = mcli.FAST_GAIT_FALLS[("pdff", "ideal")]
-    assert r["steps_completed"] == steps and r["fell_at_s"] == pytest.approx(t, abs=1.5e-3)
+    strike, steps, t = mcli.FAST_GAIT_FALLS[("pdff", "ideal")]
+    assert strike == 1 and r["steps_completed"] == steps and r["fell_at_s"] == pytest.approx(t, abs=1.5e-3)
 
 
 @pytest.mark.parametrize("controller,sensing", [("pdff", "encoders"), ("iolin", "observer"),
@@ -103,8 +103,9 @@ def test_walk_refuses_the_fast_gait_where_it_falls(controller, sensing, capsys):
 
     line = expect_usage_error(["walk", "mabel", "--gait", "fast", "--controller", controller, "--sensing", sensing],
                               capsys, "falls")
-    steps, t = mcli.FAST_GAIT_FALLS[(controller, sensing)]
-    assert "every controller" in line and f"step {steps + 1}" in line and f"{t:.2f} s" in line
+    strike, steps, t = mcli.FAST_GAIT_FALLS[(controller, sensing)]
+    assert "every controller" in line and f"step {strike} " in line and f"step {steps + 1})" in line
+    assert f"{t:.2f} s" in line
 
 
 # ----------------------------------------------------------------------------- design

@@ -23,16 +23,16 @@ STEADY_STEPS = 10                  # impact-scaling: steady speed over the last 
 
 
 #: the shipped ``fast`` gait (designed at 1.52 m/s) under each (controller, sensing) pairing of
-#: ``walk mabel``: (touchdowns before the fall, time of the fall in s), measured on the closed
-#: loop (:func:`bipedlab.robots.mabel.walking.study.walk`, 5 steps asked). In every pairing the
-#: last touchdown is the swing toe striking the ground behind the stance toe (0.03-0.05 s into
-#: a step, the first step under PD + feedforward); then the hip drops below the walking range
-#: (PD + feedforward) or the torso pitches forward past 75 deg (I/O linearisation).
+#: ``walk mabel``: (step, counted from 1, in which its swing toe strikes the ground behind the
+#: stance toe, 0.03-0.05 s into that step; touchdowns before the fall; time of the fall in s),
+#: measured on the closed loop (:func:`bipedlab.robots.mabel.walking.study.walk`, 5 steps
+#: asked). After the strike the hip drops below the walking range (PD + feedforward) or the
+#: torso pitches forward past 75 deg (I/O linearisation).
 FAST_GAIT_FALLS = {
-    ("pdff", "encoders"): (2, 0.535), ("pdff", "observer"): (2, 0.569), ("pdff", "ideal"): (2, 0.539),
-    ("iolin", "encoders"): (2, 0.540), ("iolin", "observer"): (2, 0.541), ("iolin", "ideal"): (1, 0.252),
-    ("decentralized", "encoders"): (3, 0.785), ("decentralized", "observer"): (2, 0.551),
-    ("decentralized", "ideal"): (1, 0.250),
+    ("pdff", "encoders"): (1, 2, 0.535), ("pdff", "observer"): (1, 2, 0.569), ("pdff", "ideal"): (1, 2, 0.539),
+    ("iolin", "encoders"): (2, 2, 0.540), ("iolin", "observer"): (2, 2, 0.541), ("iolin", "ideal"): (1, 1, 0.252),
+    ("decentralized", "encoders"): (3, 3, 0.785), ("decentralized", "observer"): (2, 2, 0.551),
+    ("decentralized", "ideal"): (1, 1, 0.250),
 }
 
 
@@ -111,10 +111,10 @@ def _walk_validate(args) -> None:
         raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(GAITS)}) nor a file")
     pairing = (args.controller or "pdff", args.sensing)
     if args.gait == "fast" and pairing in FAST_GAIT_FALLS:
-        steps, t = FAST_GAIT_FALLS[pairing]
+        strike, steps, t = FAST_GAIT_FALLS[pairing]
         raise UsageError(f"--gait fast: the shipped fast gait falls under every controller in this model "
                          f"({pairing[0]} with {pairing[1]} sensing: its swing toe strikes the ground behind the "
-                         f"stance toe in step {steps} and it falls {t:.2f} s in, in step {steps + 1}); for fast "
+                         f"stance toe in step {strike} and it falls {t:.2f} s in, in step {steps + 1}); for fast "
                          f"walking lean the nominal gait forward (experiment mabel fast)")
 
 
