@@ -320,9 +320,12 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         out["push_backward_change"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
         out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else _recovered(b, push)
         out["push_forward_survived"] = not dig(f, "fell", default=True)
+        for key, sign in (("push_force_plus_45pct_n", "plus"), ("push_force_minus_45pct_n", "minus")):
+            out[key] = (Skip("the force search (a dozen walks per direction) runs in the full run only")
+                        if push.get("reduced") else dig(push, f"force_for_{sign}_45pct_n"))
     else:
         for k in ("push_forward_change", "push_forward_steps", "push_backward_change", "push_backward_steps",
-                  "push_forward_survived"):
+                  "push_forward_survived", "push_force_plus_45pct_n", "push_force_minus_45pct_n"):
             out[k] = skip
     eff = records.get("efficient")
     out["exp3_cmt"] = dig(eff, "cmt") if eff else skip
