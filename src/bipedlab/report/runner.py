@@ -215,9 +215,9 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
     from bipedlab.report import workers
 
     steps = [(p, e, x) for p, e, x in plan(papers, quick) if only is None or f"{p.key}/{e.name}" in only]
-    cached = {id(e): (root_has(p, e, quick) if use_cache else False) for p, e, _ in steps}
-    steps_expected = [(p, e, 1.0 if cached[id(e)] else x) for p, e, x in steps]
-    busy = {p.key: sum(x for q, e, x in steps_expected if q is p and not cached[id(e)]) for p in papers}
+    cached = {(p.key, e.name): (root_has(p, e, quick) if use_cache else False) for p, e, _ in steps}
+    steps_expected = [(p, e, 1.0 if cached[(p.key, e.name)] else x) for p, e, x in steps]
+    busy = {p.key: sum(x for q, e, x in steps_expected if q is p and not cached[(p.key, e.name)]) for p in papers}
     jobs = max(1, min(int(jobs), sum(1 for v in busy.values() if v > 0)))
     prog = Progress(steps_expected, say, jobs=jobs,
                     wall_expected=workers.makespan([sum(x for q, _, x in steps_expected if q is p) for p in papers], jobs))
@@ -231,7 +231,7 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
 
     def started(key: str, name: str) -> None:
         counter[0] += 1
-        prog.start(counter[0], f"{key}: {name}", selected[(key, name)], cached[id(_exp(papers, key, name))])
+        prog.start(counter[0], f"{key}: {name}", selected[(key, name)], cached[(key, name)])
 
     def finished(key: str, name: str, r: "Result") -> None:
         prog.finish(selected[(key, name)])
@@ -259,10 +259,6 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
             r.skipped = e.skip_reason if e.args(quick) is None else "not selected in this run"
             results[p.key].append(r)
     return results
-
-
-def _exp(papers: list, key: str, name: str) -> Experiment:
-    return next(p for p in papers if p.key == key).experiment(name)
 
 
 def root_has(paper: Paper, exp: Experiment, quick: bool) -> bool:

@@ -78,6 +78,23 @@ def test_push_search_finds_the_forces_for_plus_and_minus_45_percent():
         assert abs(x["force_n"]) > abs(f0)
 
 
+def test_reduced_push_experiment_is_the_full_ones_paper_force_runs():
+    """The push experiment's reductions (those of ``reproduce --quick``): the paper's two forces
+    under PD + feedforward only, pushed in step 2, no search. Each pushed walk equals the same
+    walk run directly (the experiment adds bookkeeping, not dynamics: exact equality); the
+    forward push speeds the robot up and the backward one slows it down (the paper's signs);
+    the record has no searched forces; the searches refuse a controller subset."""
+    r = wx.run("push", steps=5, push_step=2, controllers=["pdff"], search=False, reference_from=1)
+    assert "force_for_plus_45pct_n" not in r and r["push_step"] == 2
+    assert [(x["controller"], x["force_n"]) for x in r["runs"]] == [("pdff", f) for f in wx.PUSHES]
+    for x in r["runs"]:
+        direct = wm.walk("nominal", "pdff", 5, push=f"{x['force_n']}@2")
+        assert x["speed_per_step"] == direct["speed_per_step"]
+        assert np.sign(x["peak_speed_change"]) == np.sign(x["force_n"])
+    with pytest.raises(ValueError, match="both"):
+        wx.push(5, None, None, controllers=["pdff"], search=True)
+
+
 # ----------------------------------------------------------------------------- falls
 
 def test_a_fallen_walk_reports_no_speed():

@@ -168,16 +168,15 @@ def _wx(name):
     def run(args, out, progress):
         from bipedlab.robots.mabel.walking import experiments as wx
 
-        if args.get("quick"):
-            return _QUICK[name](args, out, progress)
-        return wx.run(name, steps=args["steps"], out=out, progress=progress)
+        return wx.run(name, steps=args["steps"], out=out, progress=progress, **args.get("options", {}))
     return run
 
 
 # ------------------------------------------------------------------ hzd, reduced (--quick) runs
-# The reduced walks use two compiled loops in all (PD + feedforward, and the I/O-linearising
-# HZD controller; the loop's gait, push, impact scale, lean and sensing are traced arguments),
-# so the six experiments together compile about as much as two single walks.
+# The reduced walks are the experiments' own options. They use two compiled loops in all (PD +
+# feedforward, and the I/O-linearising HZD controller; the loop's gait, push, impact scale, lean
+# and sensing are traced arguments), so the six experiments together compile about as much as
+# two single walks.
 QUICK_WALK_STEPS = 6
 QUICK_PUSH_STEP, QUICK_PUSH_STEPS = 3, 9
 QUICK_ETAS = (1.0, 0.98, 0.966)
@@ -185,83 +184,8 @@ QUICK_ETA_STEPS, QUICK_ETA_AVERAGE = 12, 5
 QUICK_LEAN_STEPS, QUICK_FAST_STEPS = 10, 5
 
 
-def _quick_walk(name):
-    def run(args, out, progress):
-        from bipedlab.robots.mabel.walking import experiments as wx
-
-        return wx.run(name, steps=args["steps"], out=out, progress=progress)
-    return run
-
-
-def _quick_push(args, out, progress):
-    """Exp. 2 reduced: the paper's two pushes under PD + feedforward only, at step
-    QUICK_PUSH_STEP of a QUICK_PUSH_STEPS-step walk; the reference is the unpushed walk's speed
-    over the same steps."""
-    from bipedlab.robots.mabel.walking import experiments as wx
-    from bipedlab.robots.mabel.walking import study as wm
-
-    n, k = args["steps"], args["push_step"]
-    base = wm.walk("nominal", "pdff", n, progress=progress)
-    ref = float(np.mean(base["speed_per_step"][1:]))
-    runs = []
-    for force in wx.PUSHES:
-        r = wm.walk("nominal", "pdff", n, push=f"{force}@{k}", progress=progress,
-                    out=f"{out}/pdff_{force:+.0f}N" if out else None)
-        peak, back = wx._recovery(r["speed_per_step"], k, ref)
-        runs.append(dict(controller="pdff", force_n=force, step=k, fell=r["fell"], steps_completed=r["steps_completed"],
-                         unpushed_speed_mps=ref, speed_per_step=r["speed_per_step"], peak_speed_change=peak,
-                         steps_to_recover=back))
-    return dict(experiment="push", runs=runs, reduced=True)
-
-
-def _quick_tracking(args, out, progress):
-    """Exps. 4-5 reduced: PD + feedforward and I/O linearisation (not the decentralised form)."""
-    from bipedlab.robots.mabel.walking import study as wm
-
-    rows = {}
-    for c in ("pdff", "iolin"):
-        r = wm.walk("nominal", c, args["steps"], progress=progress, out=(f"{out}/{c}" if out else None))
-        rows[c] = dict(fell=r["fell"], steps_completed=r["steps_completed"], speed_mps=r["speed_mps"],
-                       tracking_rms_deg=r["tracking_rms_deg"], tracking_peak_deg=r["tracking_peak_deg"],
-                       peak_torques_nm=r["peak_torques_nm"], cmt=r["cmt"])
-    return dict(experiment="tracking", controllers=rows, reduced=True)
-
-
-def _quick_impact_scaling(args, out, progress):
-    """Table I reduced: three values of eta under the compliant-HZD controller with exact sensing
-    (as the full run), the steady speed averaged over the last QUICK_ETA_AVERAGE steps."""
-    from bipedlab.robots.mabel.walking import study as wm
-
-    rows = []
-    for eta in args["etas"]:
-        r = wm.walk("nominal", "iolin", args["steps"], eta=eta, sensing="ideal", progress=progress)
-        sp = r["speed_per_step"]
-        ok = not r["fell"] and len(sp) >= args["average"]
-        rows.append(dict(eta=eta, paper_speed_mps=wm.PAPER["impact_scaling"][eta], fell=r["fell"],
-                         steps_completed=r["steps_completed"],
-                         steady_speed_mps=float(np.mean(sp[-args["average"]:])) if ok else None))
-    return dict(experiment="impact-scaling", controller="iolin", sensing="ideal", rows=rows, reduced=True)
-
-
-def _quick_fast(args, out, progress):
-    """Exp. 5 reduced: the same lean (0.7 rad) in fewer increments, then a few steps."""
-    from bipedlab.robots.mabel.walking import experiments as wx
-    from bipedlab.robots.mabel.walking import study as wm
-
-    ramp = args["lean_steps"]
-    r = wm.walk("nominal", "iolin", ramp + args["steps"], out=out, progress=progress, sensing=wx.FAST_SENSING,
-                lean_deg=wx.FAST_LEAN_DEG, lean_steps=ramp)
-    r.update(wx._after_ramp(r, ramp))
-    r.update(experiment="fast", reduced=True)
-    return r
-
-
-_QUICK = {"nominal": _quick_walk("nominal"), "efficient": _quick_walk("efficient"), "push": _quick_push,
-          "tracking": _quick_tracking, "impact-scaling": _quick_impact_scaling, "fast": _quick_fast}
-
-
-def _walk_exp(name, command, full_steps, quick_args, reduction, expected, quick_expected):
-    return Experiment(name, command, _wx(name), dict(steps=full_steps), dict(quick_args, quick=True),
+def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick_expected, **options):
+    return Experiment(name, command, _wx(name), dict(steps=full_steps), dict(steps=quick_steps, options=options),
                       reduction=reduction, expected_s=expected, quick_expected_s=quick_expected)
 
 
@@ -270,26 +194,24 @@ HZD_EXPERIMENTS = (
                dict(source="shipped"), reduction="reads the shipped gait files (designed by optimize mabel, with their "
                "stored Poincaré eigenvalues) instead of optimising and linearising again", expected_s=900,
                quick_expected_s=35),
-    _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, dict(steps=QUICK_WALK_STEPS),
+    _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, QUICK_WALK_STEPS,
               f"{QUICK_WALK_STEPS} steps instead of 100", 420, 60),
-    _walk_exp("push", "bipedlab experiment mabel push", 30,
-              dict(steps=QUICK_PUSH_STEPS, push_step=QUICK_PUSH_STEP),
+    _walk_exp("push", "bipedlab experiment mabel push", 30, QUICK_PUSH_STEPS,
               f"the two pushes under PD + feedforward only, in step {QUICK_PUSH_STEP} of {QUICK_PUSH_STEPS}-step walks "
-              "(instead of step 10 of 30, and the decentralised controller's pushes)", 300, 30),
-    _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, dict(steps=QUICK_WALK_STEPS),
+              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 300, 30,
+              push_step=QUICK_PUSH_STEP, controllers=["pdff"], search=False, reference_from=1),
+    _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, QUICK_WALK_STEPS,
               f"{QUICK_WALK_STEPS} steps instead of 100", 200, 12),
-    _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, dict(steps=QUICK_WALK_STEPS),
+    _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, QUICK_WALK_STEPS,
               f"PD + feedforward and I/O linearisation only (not the decentralised form), {QUICK_WALK_STEPS} steps "
-              "instead of 30", 400, 70),
-    _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40,
-              dict(steps=QUICK_ETA_STEPS, etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE),
+              "instead of 30", 400, 70, controllers=["pdff", "iolin"]),
+    _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40, QUICK_ETA_STEPS,
               f"eta in {{{', '.join(f'{e:g}' for e in QUICK_ETAS)}}} only, {QUICK_ETA_STEPS} steps each with the speed "
               f"of the last {QUICK_ETA_AVERAGE} (instead of six values, 40 steps, the last 10); no PD + feedforward "
-              "column", 500, 35),
-    _walk_exp("fast", "bipedlab experiment mabel fast", 100,
-              dict(steps=QUICK_FAST_STEPS, lean_steps=QUICK_LEAN_STEPS),
+              "column", 500, 35, etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False),
+    _walk_exp("fast", "bipedlab experiment mabel fast", 100, QUICK_FAST_STEPS,
               f"the 0.7 rad lean in {QUICK_LEAN_STEPS} increments instead of 30, then {QUICK_FAST_STEPS} steps instead "
-              "of 100; no comparison runs", 500, 25),
+              "of 100; no comparison runs", 500, 25, lean_steps=QUICK_LEAN_STEPS, comparisons=False),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
@@ -316,13 +238,13 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         runs = {(r["controller"], r["force_n"]): r for r in push["runs"]}
         f, b = runs.get(("pdff", 78.0)), runs.get(("pdff", -71.0))
         out["push_forward_change"] = Skip("fell after the push") if dig(f, "fell") else dig(f, "peak_speed_change")
-        out["push_forward_steps"] = Skip("fell after the push") if dig(f, "fell") else _recovered(f, push)
+        out["push_forward_steps"] = Skip("fell after the push") if dig(f, "fell") else _recovered(f, quick)
         out["push_backward_change"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
-        out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else _recovered(b, push)
+        out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else _recovered(b, quick)
         out["push_forward_survived"] = not dig(f, "fell", default=True)
         for key, sign in (("push_force_plus_45pct_n", "plus"), ("push_force_minus_45pct_n", "minus")):
-            out[key] = (Skip("the force search (a dozen walks per direction) runs in the full run only")
-                        if push.get("reduced") else dig(push, f"force_for_{sign}_45pct_n"))
+            out[key] = (dig(push, f"force_for_{sign}_45pct_n") if "searches" in push else
+                        Skip("the force search (a dozen walks per direction) runs in the full run only"))
     else:
         for k in ("push_forward_change", "push_forward_steps", "push_backward_change", "push_backward_steps",
                   "push_forward_survived", "push_force_plus_45pct_n", "push_force_minus_45pct_n"):
@@ -344,7 +266,7 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     return out
 
 
-def _recovered(run: dict, push: dict):
+def _recovered(run: dict, quick: bool):
     """Steps until the speed is back within 2 % of the unpushed one, or a Skip saying that it
     was not back within the steps simulated."""
     back = dig(run, "steps_to_recover")
@@ -352,7 +274,7 @@ def _recovered(run: dict, push: dict):
         return back
     after = len(dig(run, "speed_per_step", default=[])) - int(dig(run, "step", default=0))
     return Skip(f"not back within 2 % of the unpushed speed in the {after} steps simulated after the push"
-                + (" (--quick)" if push.get("reduced") else ""))
+                + (" (--quick)" if quick else ""))
 
 
 def _output_name(rec, short: str):

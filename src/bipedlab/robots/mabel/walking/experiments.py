@@ -143,12 +143,10 @@ def _push_row(r, controller, force, push_step, ref, direction):
     sp = r["speed_per_step"]
     peak = peak_change(sp, push_step, ref, direction)
     back = steps_to_settle(sp, push_step, ref)
-    keys = ("friction_cone_exceeded", "max_friction_ratio", "friction_cone_exceeded_step", "toe_pulled",
-            "toe_pulled_step", "min_normal_force_n")
     return dict(controller=controller, force_n=float(force), step=push_step, fell=r["fell"],
                 steps_completed=r["steps_completed"], unpushed_speed_mps=ref, speed_per_step=sp,
-                speed_change=peak, steps_to_recover_5pct=None if r["fell"] else back,
-                **{k: r[k] for k in keys})
+                speed_change=peak, steps_to_recover_5pct=None if r["fell"] else back, **_contact(r),
+                friction_cone_exceeded_step=r["friction_cone_exceeded_step"], toe_pulled_step=r["toe_pulled_step"])
 
 
 def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progress=None, tol=SEARCH_TOL,
@@ -177,7 +175,8 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
         **row)
 
 
-def push(steps, progress, out):
+def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decentralized"), search=True,
+         reference_from=5):
     """Exp. 2. The forces that change the speed by TARGET_CHANGES (+45 % / -45 %, as the paper's
     pushes did on the robot) over the second half of step PUSH_STEP, searched from the paper's
     estimates under PD + feedforward, the experiment's controller (``force_for_plus_45pct_n``,
@@ -192,42 +191,54 @@ def push(steps, progress, out):
     ``max_friction_ratio``, ``toe_pulled``) but does not count as a fall; a fall is the hip or
     torso leaving the walking range, or the robot rolling back over its stance toe
     (:func:`~bipedlab.robots.mabel.walking.loop.fell`). Making the foot slip is outside this
-    model. A run that falls keeps the speed change of the steps it completed."""
+    model. A run that falls keeps the speed change of the steps it completed.
+
+    Reductions: ``push_step``, the pushed step; ``controllers``, a subset of PD + FF and the
+    decentralised controller; ``search`` False leaves out the force searches (the record then
+    has no ``force_for_*`` keys); ``reference_from``, the first step of the unpushed speed's
+    mean. The searches need both controllers."""
+    if search and set(controllers) != {"pdff", "decentralized"}:
+        raise ValueError("push: the force searches walk both PD + feedforward and the decentralised controller")
     steps = steps or 30
     refs = {}
-    for controller in ("pdff", "decentralized"):
+    for controller in controllers:
         base = _walk("nominal", controller, steps, progress)
-        refs[controller] = float(np.mean(base["speed_per_step"][5:]))
+        refs[controller] = float(np.mean(base["speed_per_step"][reference_from:]))
+    paper = dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
+                 backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3))
+    runs = []
+    for controller, pushes in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
+        if controller not in refs:
+            continue
+        ref = refs[controller]
+        for force in pushes:
+            r = _walk("nominal", controller, steps, progress, push=f"{force}@{push_step}",
+                      out=f"{out}/{controller}_{force:+.0f}N" if out else None)
+            row = _push_row(r, controller, force, push_step, ref, np.sign(force))
+            peak, back = _recovery(r["speed_per_step"], push_step, ref)
+            # and as before: the largest change either way, the steps until first back within 2 %
+            row.update(peak_speed_change=peak, steps_to_recover=back)
+            runs.append(row)
+    rec = dict(experiment="push", push_step=push_step, recovery_tolerance=RECOVERY_TOL, unpushed_speed_mps=refs,
+               runs=runs, paper=paper)
+    if not search:
+        return rec
     say = progress or (lambda msg: None)
     searches = []
     for controller, starts in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
         for target, f0 in zip(TARGET_CHANGES, starts):
             say(f"push: searching the force for {100 * target:+.0f} % under {controller}")
-            searches.append(search_push(controller, target, f0, refs[controller], steps, progress=progress))
+            searches.append(search_push(controller, target, f0, refs[controller], steps, push_step, progress))
     plus, minus = searches[:2]
     at_pdff = []
     for x in (plus, minus):
-        r = _walk("nominal", "decentralized", steps, progress, push=f"{x['force_n']!r}@{PUSH_STEP}")
-        at_pdff.append(dict(_push_row(r, "decentralized", x["force_n"], PUSH_STEP, refs["decentralized"],
+        r = _walk("nominal", "decentralized", steps, progress, push=f"{x['force_n']!r}@{push_step}")
+        at_pdff.append(dict(_push_row(r, "decentralized", x["force_n"], push_step, refs["decentralized"],
                                       np.sign(x["target_change"])), target_change=x["target_change"]))
-    runs = []
-    for controller, pushes in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
-        ref = refs[controller]
-        for force in pushes:
-            r = _walk("nominal", controller, steps, progress, push=f"{force}@{PUSH_STEP}",
-                      out=f"{out}/{controller}_{force:+.0f}N" if out else None)
-            row = _push_row(r, controller, force, PUSH_STEP, ref, np.sign(force))
-            peak, back = _recovery(r["speed_per_step"], PUSH_STEP, ref)
-            # and as before: the largest change either way, the steps until first back within 2 %
-            row.update(peak_speed_change=peak, steps_to_recover=back)
-            runs.append(row)
-    return dict(experiment="push", push_step=PUSH_STEP, recovery_tolerance=RECOVERY_TOL,
-                unpushed_speed_mps=refs,
-                force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],
-                speed_change_at_plus_force=plus["speed_change"], speed_change_at_minus_force=minus["speed_change"],
-                searches=searches, at_pdff_forces=at_pdff, runs=runs,
-                paper=dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
-                           backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3)))
+    rec.update(force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],
+               speed_change_at_plus_force=plus["speed_change"], speed_change_at_minus_force=minus["speed_change"],
+               searches=searches, at_pdff_forces=at_pdff)
+    return rec
 
 
 def efficient(steps, progress, out):
@@ -245,9 +256,9 @@ def efficient(steps, progress, out):
     return r
 
 
-def tracking(steps, progress, out):
+def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized")):
     rows = {}
-    for c in ("pdff", "iolin", "decentralized"):
+    for c in controllers:
         r = _walk("nominal", c, steps or 30, progress, out=(f"{out}/{c}" if out else None))
         rows[c] = dict(fell=r["fell"], steps_completed=r["steps_completed"], speed_mps=r["speed_mps"],
                        tracking_rms_deg=r["tracking_rms_deg"], tracking_peak_deg=r["tracking_peak_deg"],
@@ -257,20 +268,22 @@ def tracking(steps, progress, out):
                            torso_peak_deg=dict(pdff=3.1, iolin=2.4), mLS_st_peak_deg=dict(pdff=59.1, iolin=39.5)))
 
 
-def impact_scaling(steps, progress, out):
+def impact_scaling(steps, progress, out, etas=ETAS, average=10, pdff_column=True):
     """Table I is a simulation of the nominal fixed point: here under the compliant-HZD
-    controller with exact sensing (the model's own closed loop), and beside it PD + feedforward
-    with encoders (the experiment's controller)."""
+    controller with exact sensing (the model's own closed loop), and beside it (``pdff_column``)
+    PD + feedforward with encoders (the experiment's controller). The steady speed is the mean
+    over the last ``average`` steps."""
     steps = steps or 40
+    columns = (("", "iolin", "ideal"), ("pdff_", "pdff", "encoders"))[: 2 if pdff_column else 1]
     rows = []
-    for eta in ETAS:
+    for eta in etas:
         row = dict(eta=eta, paper_speed_mps=wm.PAPER["impact_scaling"][eta])
-        for key, c, sensing in (("", "iolin", "ideal"), ("pdff_", "pdff", "encoders")):
+        for key, c, sensing in columns:
             r = _walk("nominal", c, steps, progress, eta=eta, sensing=sensing)
             sp = r["speed_per_step"]
-            ok = not r["fell"] and len(sp) >= 10
+            ok = not r["fell"] and len(sp) >= average
             row.update({f"{key}fell": r["fell"], f"{key}steps_completed": r["steps_completed"],
-                        f"{key}steady_speed_mps": float(np.mean(sp[-10:])) if ok else None})
+                        f"{key}steady_speed_mps": float(np.mean(sp[-average:])) if ok else None})
         rows.append(row)
     ok = [x["steady_speed_mps"] for x in rows if x["steady_speed_mps"] is not None]
     return dict(experiment="impact-scaling", controller="iolin", sensing="ideal", rows=rows,
@@ -295,28 +308,31 @@ def _contact(r):
     return {k: r[k] for k in ("friction_cone_exceeded", "max_friction_ratio", "toe_pulled", "min_normal_force_n")}
 
 
-def fast(steps, progress, out):
+def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
     """Exp. 5 as the experimenters did it: the nominal (Exp. 1) constraints, the torso leaned
     forward step by step (:func:`~bipedlab.robots.mabel.walking.constraints.lean`, FAST_LEAN_STEPS increments)
     under the full compliant-HZD controller, then ``steps`` (default 100) more steps, with the
     14-bit encoders read through the model-based velocity observer. Alongside: the same run
     with the plain filtered difference (whose quantisation chatter can unload the stance toe
     at this speed: see its ``toe_pulled`` and ``min_normal_force_n``), the decentralised
-    variant, and the optimised ``fast`` gait (which falls within a few steps)."""
+    variant, and the optimised ``fast`` gait (which falls within a few steps); ``comparisons``
+    False leaves those out. ``lean_steps``: the increments of the lean."""
     n = steps or 100
-    total = FAST_LEAN_STEPS + n
-    lean = dict(lean_deg=FAST_LEAN_DEG, lean_steps=FAST_LEAN_STEPS)
+    total = lean_steps + n
+    lean = dict(lean_deg=FAST_LEAN_DEG, lean_steps=lean_steps)
     r = _walk("nominal", "iolin", total, progress, out=out, sensing=FAST_SENSING, **lean)
-    r.update(_after_ramp(r, FAST_LEAN_STEPS))
+    r.update(_after_ramp(r, lean_steps))
     r.update(experiment="fast", within_torque_limits=bool(all(
         t <= c + 1e-9 for t, c in zip(r["peak_torques_nm"], [30.0, 55.0, 30.0, 55.0]))),
         target_met=bool(not r["fell"] and r["steps_after_lean"] >= n and r["speed_after_lean_mps"] >= FAST_TARGET_MPS),
         paper=dict(sustained_speed_mps=1.5, top_speed_mps=1.52, start_speed_mps=1.15))
+    if not comparisons:
+        return r
     comp = {}
     for key, controller, sensing in (("iolin_filtered_difference", "iolin", "encoders"),
                                      ("decentralized_observer", "decentralized", FAST_SENSING)):
         d = _walk("nominal", controller, total, progress, sensing=sensing, **lean)
-        comp[key] = dict(fell=d["fell"], steps_completed=d["steps_completed"], **_after_ramp(d, FAST_LEAN_STEPS),
+        comp[key] = dict(fell=d["fell"], steps_completed=d["steps_completed"], **_after_ramp(d, lean_steps),
                          **_contact(d))
     g = _walk("fast", "iolin", 10, progress, sensing=FAST_SENSING)
     comp["optimised_fast_gait"] = dict(designed_speed_mps=g["designed_speed_mps"], fell=g["fell"],
@@ -366,9 +382,11 @@ _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tr
         "impact-scaling": impact_scaling, "fast": fast, "sweep": sweep}
 
 
-def run(name: str, steps=None, out=None, progress=None) -> dict:
+def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
+    """Run experiment ``name``; ``options``: the experiment's own keyword arguments (the
+    reductions of ``bipedlab reproduce --quick``)."""
     t0 = time.perf_counter()
-    r = _RUN[name](steps, progress, out)
+    r = _RUN[name](steps, progress, out, **options)
     r.setdefault("experiment", name)
     r["wall_s"] = time.perf_counter() - t0
     return r
