@@ -6,6 +6,7 @@ robot composes into its ``sensor(params, sensor_state, x, t)``.
 * :func:`observer_blend` - a model prediction of the rate blended with the backward difference
   moved to the end of the period (no lag at the filter's strength);
 * :class:`Delay`, :func:`delay_init`, :func:`delay_push` - a whole-sample delay line;
+  :func:`delay_read` - a delay line of fixed length read back by a (traced) number of samples;
 * :func:`held_noise` - noise redrawn every ``hold`` samples and held in between.
 """
 from __future__ import annotations
@@ -59,6 +60,16 @@ def delay_push(d: Delay, value):
     out = d.buffer[d.head]
     buf = d.buffer.at[d.head].set(value)
     return Delay(buf, (d.head + 1) % d.buffer.shape[0]), out
+
+
+def delay_read(d: Delay, value, n):
+    """Write ``value`` into the delay line and read the value written ``n`` samples ago
+    (``value`` itself for n = 0, the prefill before n writes; 0 <= n < the line's length):
+    (delay line, out). ``n`` may be traced, so one compiled program serves every delay up to
+    the line's length; for n >= 1 the same values as a :func:`delay_push` line of n samples."""
+    size = d.buffer.shape[0]
+    buf = d.buffer.at[d.head].set(value)
+    return Delay(buf, (d.head + 1) % size), buf[(d.head - n) % size]
 
 
 def held_noise(key, k, hold: int, held, draw):

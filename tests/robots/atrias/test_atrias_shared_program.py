@@ -28,7 +28,7 @@ def test_indexed_delay_line_equals_the_fixed_delay_lines():
                 want = z
             else:
                 fixed, want = sensors.delay_push(fixed, z)
-            line, got = ar.delay_read(line, z, n)
+            line, got = sensors.delay_read(line, z, n)
             np.testing.assert_array_equal(np.asarray(got), np.asarray(want))
     assert ar.program(ar.RunConfig(delay=10)) == ar.program(ar.RunConfig(delay=0, noise=True))
     assert ar.program(ar.RunConfig(delay=ar.DELAY_LINE)).delay_line == ar.DELAY_LINE + 1

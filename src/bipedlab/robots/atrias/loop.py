@@ -15,8 +15,9 @@ it runs the ``RunConfig.substeps`` Euler steps and then the per-sample apex book
   folded with the sample index // 3, so no held value; :func:`bipedlab.sim.sensors.held_noise`
   gives the same draws but its select changes the compiled arithmetic, by 1e-11 in the apex
   records; the draw is scaled by ``Sensing.noise``, 0 or 1, so 0 adds exact zeros) and the
-  foot contact switches, all delayed by a whole number of samples (:func:`delay_read`: a
-  delay line of fixed length read ``Sensing.delay`` samples back, exact);
+  foot contact switches, all delayed by a whole number of samples
+  (:func:`bipedlab.sim.sensors.delay_read`: a delay line of fixed length read ``Sensing.delay``
+  samples back, exact);
 * :func:`controller` - :func:`bipedlab.robots.atrias.controller.control` with its
   :class:`~bipedlab.robots.atrias.controller.CtrlState`, keeping the leg-angle target and the
   previous stance leg for the log;
@@ -215,16 +216,6 @@ def _measure(rp, s, grf):
     return jnp.concatenate([s.q, s.qd, contact])
 
 
-def delay_read(d: sensors.Delay, value, n):
-    """Write ``value`` into the delay line and read the value written ``n`` samples ago
-    (``value`` itself for n = 0, the prefill before n writes; 0 <= n < the line's length):
-    (delay line, out). For n >= 1 the same values as a :func:`bipedlab.sim.sensors.delay_push`
-    line of n samples."""
-    size = d.buffer.shape[0]
-    buf = d.buffer.at[d.head].set(value)
-    return sensors.Delay(buf, (d.head + 1) % size), buf[(d.head - n) % size]
-
-
 def make_loop(rp: at.AtriasParams, prog: Program) -> sl.SampledLoop:
     """The closed loop's stages for one trial (params: :class:`Params`)."""
     gp = at.ground_params(rp)
@@ -236,7 +227,7 @@ def make_loop(rp: at.AtriasParams, prog: Program) -> sl.SampledLoop:
         n = jax.random.uniform(jax.random.fold_in(p.trial.key, ss_.k // NOISE_EVERY), (14,), minval=-1.0,
                                maxval=1.0) * NOISE_AMP
         z = z.at[:14].add(n * p.sensing.noise)
-        delay, z = delay_read(ss_.delay, z, p.sensing.delay)
+        delay, z = sensors.delay_read(ss_.delay, z, p.sensing.delay)
         meas = rc.Meas(z[:7], z[7:14], z[14:16], jnp.zeros(2))
         return SensorState(ss_.k + 1, delay), Sensed(meas, ss_.k)
 
