@@ -85,11 +85,16 @@ def _strong(a):
     return jnp.asarray(a, dtype=a.dtype)
 
 
+def strongly_typed(tree):
+    """``tree`` with every leaf an array of its own dtype without JAX's weak type (see
+    :func:`_strong`): for states and parameters handed to a compiled function more than once."""
+    return jax.tree_util.tree_map(_strong, tree)
+
+
 def initial_state(x0, sensor_state=None, ctrl_state=None, t0=0.0) -> LoopState:
     """The loop's state at its first sample (every leaf strongly typed, see :func:`_strong`)."""
-    s = LoopState(x=x0, sensor=sensor_state, ctrl=ctrl_state, t=jnp.asarray(t0, float),
-                  k=jnp.asarray(0), status=jnp.asarray(OK), failed_at=jnp.asarray(-1))
-    return jax.tree_util.tree_map(_strong, s)
+    return strongly_typed(LoopState(x=x0, sensor=sensor_state, ctrl=ctrl_state, t=jnp.asarray(t0, float),
+                                    k=jnp.asarray(0), status=jnp.asarray(OK), failed_at=jnp.asarray(-1)))
 
 
 def _finite(tree) -> jax.Array:

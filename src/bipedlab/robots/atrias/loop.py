@@ -130,16 +130,11 @@ def sensing(cfg: RunConfig) -> Sensing:
     return Sensing(jnp.asarray(1.0 if cfg.noise else 0.0, jnp.float64), jnp.asarray(int(cfg.delay), jnp.int32))
 
 
-def _strong(a):
-    a = jnp.asarray(a)
-    return jnp.asarray(a, a.dtype)
-
-
 def params(trial: Trial, cp: rc.CtrlParams, cfg: RunConfig) -> Params:
     """The loop's parameters for ``trial``: the controller parameters as strongly typed arrays
     (a Python float is weakly typed, and a different typing would compile the program again)
     and the sensing of ``cfg``."""
-    return Params(trial, jax.tree_util.tree_map(_strong, cp), sensing(cfg))
+    return Params(trial, sl.strongly_typed(cp), sensing(cfg))
 
 
 @pytree
