@@ -120,6 +120,15 @@ def setup_parts(without=()) -> dict:
     return {k: k not in without for k in su.PARTS}
 
 
+def boom_setup(without=(), **boom_options):
+    """(parts on, :class:`~bipedlab.robots.seven_link.robot.Setup`): the boom setup less the
+    parts named in ``without``; ``boom_options``: keyword arguments of
+    :func:`bipedlab.robots.seven_link.setup.boom`."""
+    on = setup_parts(without)
+    return on, su.boom(boom_inertia=on["boom_inertia"], foot_turning=on["foot_turning"],
+                       drive_friction=on["drive_friction"], **boom_options)
+
+
 def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
              speed: float = START_SPEED, setup: str = "planar", without=(), boom_options: dict | None = None,
              knee_lock_torque: float = su.KNEE_LOCK_TORQUE):
@@ -138,11 +147,10 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
         return _simulator(settings_for(steps))(x0, active0, p, c0)
     if setup != "boom":
         raise ValueError(f"seven-link: setup must be one of {list(su.SETUPS)}, got {setup!r}")
-    on = setup_parts(without)
+    on, s = boom_setup(without, **(boom_options or {}))
     g = gains(params).replace(knee_lock_torque=jnp.asarray(knee_lock_torque * on["knee_lock"], jnp.float64))
     p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
-    plant = su.plant(su.boom(boom_inertia=on["boom_inertia"], foot_turning=on["foot_turning"],
-                             drive_friction=on["drive_friction"], **(boom_options or {})))
+    plant = su.plant(s)
     return _setup_simulator(settings_for(steps))(x0, active0, p, ctl.initial_state(x0), plant)
 
 
@@ -221,8 +229,7 @@ def setup_record(res, rec: dict, without=()) -> dict:
     """The boom walk's added record: the setup, its parts, the gait beside the paper's, the
     friction coefficient against the peak no-slip ratio, the identified drive friction and the
     setup's numbers (:func:`bipedlab.robots.seven_link.setup.describe`)."""
-    on = setup_parts(without)
-    s = su.boom(boom_inertia=on["boom_inertia"], foot_turning=on["foot_turning"], drive_friction=on["drive_friction"])
+    on, s = boom_setup(without)
     details = su.describe(s, su.KNEE_LOCK_TORQUE * on["knee_lock"])
     gait = {k: rec[k] for k in PAPER_GAIT}
     return dict(
