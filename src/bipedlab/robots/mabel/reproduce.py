@@ -137,26 +137,26 @@ def _designs(args, out, progress):
                              eig_hzd=r.get("max_abs_eigenvalue"), eig_pdff=r.get("max_abs_eigenvalue_pdff"),
                              eigenvalues_hzd=dig(pc, "hzd", "poincare_eigenvalues_complex"),
                              eigenvalues_pdff=dig(pc, "pdff", "poincare_eigenvalues_complex"),
-                             converged=r["converged"], source="optimize mabel")
+                             torso_travel_deg=r["torso_travel_deg"], converged=r["converged"],
+                             source="optimize mabel")
         else:
+            from bipedlab.robots.mabel.walking import design as md
+            from bipedlab.robots.mabel.walking import stance as wk
+
             _, _, g = wm.load_gait(name)
             d, pc = g["design"], g.get("poincare") or {}
+            design = wm._design_from_record(g)
             rec[name] = dict(speed_mps=d["speed"], step_length_m=d["step_length"], cmt=d["cmt"],
                              negative_work_fraction_spring=d["negative_work_fraction_spring"],
                              eig_hzd=dig(pc, "hzd", "max_abs_eigenvalue"), eig_pdff=dig(pc, "pdff", "max_abs_eigenvalue"),
                              eigenvalues_hzd=dig(pc, "hzd", "poincare_eigenvalues_complex"),
                              eigenvalues_pdff=dig(pc, "pdff", "poincare_eigenvalues_complex"),
+                             torso_travel_deg=float(np.degrees(md.torso_travel(wk.walking_model(), design))),
                              source=f"shipped gait file mabel_{name}.json")
             if out:
                 from bipedlab.robots.mabel.walking import plots as wp
-                from bipedlab.robots.mabel.walking import stance as wk
 
-                rec[name]["figures"] = wp.gait_figures(f"{out}/{name}", wk.walking_model(), wm._design_from_record(g))
-    for name in rec:  # the torso's range along the designed orbit (q_s[5] is the torso angle)
-        orbit = Path(f"{out}/{name}/gait_orbit.npz") if out else None
-        if orbit is not None and orbit.is_file():
-            tor = np.degrees(np.load(orbit)["q_s"][:, 5])
-            rec[name]["torso_travel_deg"] = float(tor.max() - tor.min())
+                rec[name]["figures"] = wp.gait_figures(f"{out}/{name}", wk.walking_model(), design)
     eigs = {f"{g}, {label}": rec[g][key] for g in rec for key, label in
             (("eigenvalues_hzd", "restricted map"), ("eigenvalues_pdff", "PD + FF, full map")) if rec[g].get(key)}
     if out and eigs:
