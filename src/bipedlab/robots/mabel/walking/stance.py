@@ -23,6 +23,8 @@ deflection through eq. 1), and the legs are relabelled.
 """
 from __future__ import annotations
 
+import functools
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -42,8 +44,12 @@ _S = np.array([_E[c] for c in STANCE])
 SWAP = tuple(_E[c.replace("_L", "_X").replace("_R", "_L").replace("_X", "_R")] for c in COORDS_9)
 
 
+@functools.lru_cache(maxsize=2)
 def walking_model(ideal: bool = True) -> Mabel:
-    """The 9-DoF rigid-cable model used for walking (ideal actuators by default)."""
+    """The 9-DoF rigid-cable model used for walking (ideal actuators by default). One object
+    per process (the model is a frozen pytree): the walking loop is compiled once per (model,
+    controller) (:func:`bipedlab.robots.mabel.walking.loop.closed_loop`), so every walk reuses
+    its program."""
     m = rigid_model()
     if ideal:
         d = m.drive

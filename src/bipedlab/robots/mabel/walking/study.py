@@ -15,7 +15,6 @@ ship with the package.
 """
 from __future__ import annotations
 
-import functools
 import time
 
 from pathlib import Path
@@ -279,18 +278,11 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
                     lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0))
 
 
-@functools.lru_cache(maxsize=None)
-def plant_model():
-    """The closed loop's walking model, one object per process: the compiled loop is cached per
-    (model, controller), so every walk (each push of a search, say) reuses one program."""
-    return wk.walking_model()
-
-
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
              progress=None, lean_deg: float = 0.0, lean_steps: int = 20):
     """Simulate; returns (final loop state, logs, gait record)."""
     vc, gains, rec = load_gait(gait)
-    m = plant_model()
+    m = wk.walking_model()
     setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
     cb = None
     if progress is not None:
