@@ -97,6 +97,10 @@ def _walk_arguments(p) -> None:
     p.add_argument("--sensing", choices=["encoders", "observer", "ideal"], default="encoders",
                    help="14-bit encoders with filtered differentiated velocities (default), the same encoders "
                         "with a model-based velocity observer, or the exact state")
+    p.add_argument("--plant", choices=["stance", "full"], default="stance",
+                   help="stance: the model the gaits are designed on (rigid cables, pinned toe, rigid impact; "
+                        "default); full: the 13-DoF model with cable stretch, compliant ground with LuGre "
+                        "friction, a free swing spring and hard stops")
     _out(p)
 
 
@@ -107,6 +111,9 @@ def _walk_validate(args) -> None:
                          f"{steps} steps (0 to {steps - 1}); raise --steps or push earlier")
     if args.lean_steps is not None and args.lean == 0.0:
         raise UsageError("--lean-steps applies with a non-zero --lean")
+    if args.plant == "full" and (args.push is not None or args.impact_scale != 1.0):
+        raise UsageError("--plant full: --push and --impact-scale apply to the stance plant only (the full plant's "
+                         "impact is its compliant ground's)")
     if args.gait is not None and args.gait not in GAITS and not os.path.isfile(args.gait):
         raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(GAITS)}) nor a file")
     pairing = (args.controller or "pdff", args.sensing)
@@ -129,7 +136,8 @@ def _walk(args, progress):
     push = None if args.push is None else f"{args.push[0]!r}@{args.push[1]}"
     lean_steps = 20 if args.lean_steps is None else args.lean_steps
     rec = wm.walk(gait, args.controller or "pdff", args.steps or 100, push=push, eta=args.impact_scale,
-                  sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean, lean_steps=lean_steps)
+                  sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean, lean_steps=lean_steps,
+                  plant=args.plant)
     return rec, wm.summary_walk
 
 

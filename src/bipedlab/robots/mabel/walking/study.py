@@ -278,9 +278,20 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
                     lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0))
 
 
+#: plants ``walk mabel`` can drive: the stance model the gaits are designed on (rigid cables,
+#: pinned toe, swing spring at rest, rigid impact), or the 13-DoF model with cable stretch, the
+#: compliant ground and a free swing spring (:mod:`.full_plant`)
+PLANTS = ("stance", "full")
+
+
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
-             progress=None, lean_deg: float = 0.0, lean_steps: int = 20):
-    """Simulate; returns (final loop state, logs, gait record)."""
+             progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance"):
+    """Simulate; returns (final loop state, logs, gait record). On the ``full`` plant there is
+    no push and no impact map to scale (the ground's compliance makes the impact)."""
+    if plant not in PLANTS:
+        raise ValueError(f"plant must be one of {', '.join(PLANTS)}, got {plant!r}")
+    if plant == "full" and (push[1] >= 0 or eta != 1.0):
+        raise ValueError("the full plant takes no push and no impact scaling (its impact is the compliant ground's)")
     vc, gains, rec = load_gait(gait)
     m = wk.walking_model()
     setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
@@ -292,7 +303,12 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
             if k // 10 != last[0]:
                 last[0] = k // 10
                 progress(f"step {k}/{n}")
-    s, log = sw.simulate(m, controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
+    if plant == "full":
+        from bipedlab.robots.mabel.walking import full_plant as fp
+
+        s, log = fp.simulate(controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
+    else:
+        s, log = sw.simulate(m, controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
     return s, log, rec
 
 
@@ -322,31 +338,47 @@ def metrics(s, log) -> dict:
 
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
-         out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20) -> dict:
+         out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance") -> dict:
     """Closed-loop walk; ``lean_deg`` leans the torso forward (swing leg's absolute angle kept)
-    in ``lean_steps`` equal increments, one per step, as the experimenters did to walk faster."""
+    in ``lean_steps`` equal increments, one per step, as the experimenters did to walk faster.
+    ``plant``: the stance model or the 13-DoF model (:data:`PLANTS`); the record gives the
+    realised ``cmt`` beside the gait's designed ``cmt_designed``."""
     force, step = parse_push(push)
-    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps)
-    r = dict(robot="mabel", gait=gait, controller=controller, sensing=sensing, impact_scale=eta,
+    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps, plant)
+    r = dict(robot="mabel", gait=gait, plant=plant, controller=controller, sensing=sensing, impact_scale=eta,
              torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
              push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log))
     pc = rec.get("poincare") or {}
     key = "hzd" if controller != "pdff" else "pdff"
     r["max_abs_eigenvalue"] = pc.get(key, {}).get("max_abs_eigenvalue")
     r["designed_speed_mps"] = float(rec["design"]["speed"])
+    r["cmt_designed"] = float(rec["design"]["cmt"])
+    r["cmt_ratio"] = None if r["cmt"] is None or r["fell"] else r["cmt"] / r["cmt_designed"]
+    if plant == "full":
+        from bipedlab.robots.mabel.walking import full_plant as fp
+
+        # the compliant ground cannot pull: F_N = 0 there is the stance toe off the ground,
+        # which stance_toe_airborne_fraction reports
+        r.update(fp.gap_record(log, s), toe_pulled=False, toe_pulled_step=None)
     if out:
         from bipedlab.robots.mabel.walking import plots as wp
 
         r["figures"] = wp.walk_figures(out, log, r)
+        if plant == "full":
+            from bipedlab.robots.mabel.walking import gap_plots
+
+            _, ref_log, _ = run_walk(gait, controller, 12, eta=gap_plots.FIG20_ETA, sensing="ideal")
+            r["figures"] += gap_plots.fig20(out, log, ref_log)
     return r
 
 
 def summary_walk(r: dict) -> str:
-    lines = [f"MABEL walking, gait {r['gait']}, controller {r['controller']} ({r['sensing']}, 1 kHz): "
+    lines = [f"MABEL walking, gait {r['gait']}, controller {r['controller']} ({r['sensing']}, 1 kHz), "
+             f"{r['plant']} plant: "
              f"{'FELL after' if r['fell'] else 'no fall,'} {r['steps_completed']} steps",
              ("speed n/a (fell)" if r["speed_mps"] is None else f"speed {r['speed_mps']:.3f} m/s")
              + f" (designed {r['designed_speed_mps']:.3f}), c_mt "
-             + (f"{r['cmt']:.4f}" if r["cmt"] is not None else "n/a"),
+             + (f"{r['cmt']:.4f}" if r["cmt"] is not None else "n/a") + f" (designed {r['cmt_designed']:.4f})",
              "tracking rms (deg): " + ", ".join(f"{k} {v:.3f}" for k, v in r["tracking_rms_deg"].items())]
     if r.get("max_abs_eigenvalue") is not None:
         lines.append(f"Poincaré max |eig| of the gait under this controller: {r['max_abs_eigenvalue']:.4f}")
