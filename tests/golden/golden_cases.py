@@ -16,12 +16,19 @@ class Case(NamedTuple):
 
 
 EIG = (("eigenvalue_moduli", 1e-7, 1e-9), ("jacobian", 1e-9, 1e-10))
-#: MABEL's I/O-linearising walk: the controller's decoupling matrix, its inverse and the
-#: hybrid-invariance corrections are now assembled by the core's control.hzd pieces, whose
-#: operation order differs from the former robot-specific code (1-ulp torque differences);
-#: quantised encoders and three impacts amplify them to 1.2e-9 in the run totals and 3.7e-9 in
-#: the third step (measured), so rel 1e-8 holds the walk to rounding growth and no more.
-IOLIN = 1e-8
+#: MABEL's walks on CPUs with and without AVX-512 (the records were made on an AMD EPYC with
+#: AVX2 only; XLA vectorises, and so rounds, differently with AVX-512): measured up to 2.2e-7
+#: relative in the logged states of the 3-step walks (walk_mabel_pdff / _iolin), and in the
+#: CLI records, where a last-bit difference flips an encoder count or moves a touchdown by one
+#: 1 ms sample, 4.2e-4 in a duration (one sample in 2.4 s) and 1.4e-3 in c_mt (the positive
+#: work sums |u w| over noisy encoder rates). The walks are held to those sizes with a margin.
+CROSS_CPU_WALK = 1e-6
+CROSS_CPU_RECORD = 5e-3
+#: the records' peaks and RMS errors move most: a flipped count is a one-sample spike in the
+#: differentiated rate and so in the torque (measured up to 14 % in a peak torque, 8.1 % in the
+#: smallest normal force, 3.8 % in a peak tracking error, 1.2 % in an RMS error)
+CROSS_CPU_PEAKS = (("tracking_peak_deg", 0.2, 1e-9), ("peak_torques_nm", 0.2, 1e-9), ("min_normal_force_n", 0.2, 1e-9),
+                   ("max_friction_ratio", 0.2, 1e-9), ("tracking_rms_deg", 0.05, 1e-9))
 #: sysid least-squares iterates: ``rel_error`` = estimate / true - 1 loses three digits to
 #: cancellation (|rel_error| ~ 1e-3), so it is held in absolute terms: abs 1e-6 is the estimate
 #: itself to 1e-6 relative, the case's tolerance for every estimate (measured change up to
@@ -40,8 +47,8 @@ QUANTITIES = {
     "poincare_mabel_restricted_nominal": Case("mabel_restricted", ("nominal",), slow=True, special=EIG),
     "walk_five_link_iolin": Case("five_link_walk", ("iolin",), slow=True),
     "walk_five_link_pd": Case("five_link_walk", ("pd",), slow=True),
-    "walk_mabel_pdff": Case("mabel_walk", ("pdff",)),
-    "walk_mabel_iolin": Case("mabel_walk", ("iolin",), slow=True, rtol=IOLIN),
+    "walk_mabel_pdff": Case("mabel_walk", ("pdff",), rtol=CROSS_CPU_WALK, atol=1e-9),
+    "walk_mabel_iolin": Case("mabel_walk", ("iolin",), slow=True, rtol=CROSS_CPU_WALK, atol=1e-9),
     "walk_seven_link": Case("seven_link_walk"),
     "run_atrias": Case("atrias_run"),
     "run_slip": Case("slip_run"),
@@ -53,9 +60,10 @@ QUANTITIES = {
 CLI = {
     "cli_walk_five_link": Case("cli", ("walk", "five-link", "--steps", "3"), slow=True),
     "cli_walk_five_link_pd": Case("cli", ("walk", "five-link", "--steps", "3", "--controller", "pd"), slow=True),
-    "cli_walk_mabel": Case("cli", ("walk", "mabel", "--steps", "3"), slow=True),
+    "cli_walk_mabel": Case("cli", ("walk", "mabel", "--steps", "3"), slow=True, rtol=CROSS_CPU_RECORD,
+                           special=CROSS_CPU_PEAKS),
     "cli_walk_mabel_iolin": Case("cli", ("walk", "mabel", "--steps", "3", "--controller", "iolin"), slow=True,
-                                 rtol=IOLIN),
+                                 rtol=CROSS_CPU_RECORD, special=CROSS_CPU_PEAKS),
     "cli_walk_seven_link": Case("cli", ("walk", "seven-link", "--steps", "2"), slow=True),
     "cli_experiment_seven_link_free_swing": Case("cli", ("experiment", "seven-link", "free-swing")),
     "cli_run_atrias": Case("cli", ("run", "atrias", "--seconds", "1")),

@@ -56,9 +56,10 @@ def _vc_from(d: dict) -> vcm.Constraints:
     return vcm.Constraints(**{k: jnp.asarray(np.asarray(d[k], float)) for k in vcm.Constraints.__dataclass_fields__})
 
 
-def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: str, poincare: dict | None) -> dict:
+def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: str, poincare: dict | None,
+           design_model: str | None = None) -> dict:
     return gaitfile.envelope("mabel", KIND, dict(
-                name=name, speed=speed, cost=cost, x=np.asarray(design.x).tolist(),
+                name=name, speed=speed, cost=cost, design_model=design_model, x=np.asarray(design.x).tolist(),
                 constraints=_vc_dict(design.vc), z_minus=np.asarray(design.z_minus).tolist(),
                 z_plus=np.asarray(design.z_plus).tolist(),
                 feedforward=dict(beta=np.asarray(gains.beta).tolist(), bounds=np.asarray(gains.beta_bounds).tolist(),
@@ -94,8 +95,13 @@ def _design_from_record(rec: dict) -> md.Design:
 
 # ----------------------------------------------------------------------------- Poincaré
 
-def _eig_summary(ev) -> dict:
-    ev = np.asarray(ev)
+def _eig_summary(J) -> dict:
+    """Eigenvalues of the map's Jacobian J at the fixed point found, largest first; all None
+    (with the reason) when the fixed-point search left the walking range (J not finite)."""
+    if not np.all(np.isfinite(np.asarray(J))):
+        return dict(max_abs_eigenvalue=None, poincare_eigenvalues=None, poincare_eigenvalues_complex=None,
+                    failed="no fixed point: the Newton search on the return map left the walking range")
+    ev = np.asarray(mp.eigenvalues(J))
     return dict(max_abs_eigenvalue=float(np.abs(ev[0])), poincare_eigenvalues=[float(a) for a in np.abs(ev)],
                 poincare_eigenvalues_complex=[[float(e.real), float(e.imag)] for e in ev])
 
@@ -110,15 +116,14 @@ def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_chec
     out = {}
     rho = lambda x: mp.restricted_map(m, vc, x)  # noqa: E731
     xs, J, res = mp.fixed_point(rho, x0)
-    out["hzd"] = dict(**_eig_summary(mp.eigenvalues(J)), fixed_point_residual=res, map="restricted (eq. 48)")
+    out["hzd"] = dict(**_eig_summary(J), fixed_point_residual=res, map="restricted (eq. 48)")
     if fd_check:
         Jfd = mp.central_differences(rho, xs)
         out["hzd"]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
     for kind in controllers:
         P = lambda z, kind=kind: mp.full_map(m, kind, gains, vc, z)  # noqa: E731
         zs, J, res = mp.fixed_point(P, z0)
-        ev = mp.eigenvalues(J)
-        out[kind] = dict(**_eig_summary(ev), fixed_point_residual=res, map="full order (eq. 44)")
+        out[kind] = dict(**_eig_summary(J), fixed_point_residual=res, map="full order (eq. 44)")
         if fd_check:
             Jfd = mp.central_differences(P, zs)
             out[kind]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
@@ -150,7 +155,7 @@ def _start_point(speed: float, cost: str, shipped_only: bool = False):
 STEP_CONTINUATION = 0.03
 
 
-def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None, design_model: str = "full"):
+def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None, design_model: str = "paper"):
     """Optimise (torque cost first; for c_mt, continue from the torque optimum) on the design
     model ``design_model`` (:data:`~bipedlab.robots.mabel.walking.design.DESIGN_MODELS`). With
     ``step_length`` (m) the step is prescribed, reached from the nearest shipped gait by
@@ -187,7 +192,7 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
 
 
 def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None,
-             step_length=None, design_model: str = "full", x0=None) -> dict:
+             step_length=None, design_model: str = "paper", x0=None) -> dict:
     """Design a gait (:func:`design_gait`) on ``design_model`` and report it; the u* regression
     of PD + feedforward follows the design model's orbit, the Poincaré analysis runs on the
     walking model (the plant of ``walk mabel``)."""
@@ -217,13 +222,13 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
         rec.update(max_abs_eigenvalue=pc["hzd"]["max_abs_eigenvalue"], poincare_eigenvalues=pc["hzd"]["poincare_eigenvalues"],
                    poincare_eigenvalues_complex=pc["hzd"]["poincare_eigenvalues_complex"],
                    max_abs_eigenvalue_pdff=pc["pdff"]["max_abs_eigenvalue"],
-                   poincare_eigenvalues_pdff=pc["pdff"]["poincare_eigenvalues"][:6], poincare=pc)
+                   poincare_eigenvalues_pdff=(pc["pdff"]["poincare_eigenvalues"] or [])[:6] or None, poincare=pc)
     else:
         rec.update(max_abs_eigenvalue=None, poincare_eigenvalues=None)
     if save:
         name = Path(save).stem
         with open(save, "w") as fh:  # strict JSON: a failed analysis' NaN as null
-            dump_json(record(name, d, gains, speed, cost, pc), fh, indent=1)
+            dump_json(record(name, d, gains, speed, cost, pc, design_model), fh, indent=1)
         rec["saved"] = str(save)
     if out:
         from bipedlab.robots.mabel.walking import plots as wp
@@ -240,9 +245,10 @@ def summary_optimize(r: dict) -> str:
         "peak torques (N m): " + ", ".join(f"{v:.1f}" for v in r["peak_torques_nm"]) + "  (capacity 30 / 55)",
         f"negative work at the stance leg shape done by the spring: {100 * r['negative_work_fraction_spring']:.1f} %",
     ]
-    if r.get("max_abs_eigenvalue") is not None:
-        lines.append(f"Poincaré: max |eig| {r['max_abs_eigenvalue']:.4f} (HZD, restricted map), "
-                     f"{r['max_abs_eigenvalue_pdff']:.4f} (PD + feedforward, full map)")
+    if "poincare" in r:
+        eig = lambda v: "no fixed point found" if v is None else f"{v:.4f}"  # noqa: E731
+        lines.append(f"Poincaré: max |eig| {eig(r['max_abs_eigenvalue'])} (HZD, restricted map), "
+                     f"{eig(r['max_abs_eigenvalue_pdff'])} (PD + feedforward, full map)")
     lines.append(f"solve: {r['iterations']} SLSQP iterations, warm {r['optimize_warm_s']:.1f} s, "
                  f"cold {r['optimize_cold_s']:.1f} s (from {r['start']})")
     return "\n".join(lines)
@@ -360,6 +366,11 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
         # the compliant ground cannot pull: F_N = 0 there is the stance toe off the ground,
         # which stance_toe_airborne_fraction reports
         r.update(fp.gap_record(log, s), toe_pulled=False, toe_pulled_step=None)
+        # the gait's decision vector evaluated on the HZD paper's design model (no friction, no
+        # spring damping, rigid cables): the designed c_mt the paper's ~3x gap is measured from
+        paper = md.make_design(md.design_model(kind="paper"), np.asarray(rec["x"], float), rec["speed"])
+        r["cmt_designed_paper_model"] = float(paper.figures["cmt"])
+        r["cmt_ratio_paper_model"] = None if r["cmt_ratio"] is None else r["cmt"] / r["cmt_designed_paper_model"]
     if out:
         from bipedlab.robots.mabel.walking import plots as wp
 
@@ -380,6 +391,12 @@ def summary_walk(r: dict) -> str:
              + f" (designed {r['designed_speed_mps']:.3f}), c_mt "
              + (f"{r['cmt']:.4f}" if r["cmt"] is not None else "n/a") + f" (designed {r['cmt_designed']:.4f})",
              "tracking rms (deg): " + ", ".join(f"{k} {v:.3f}" for k, v in r["tracking_rms_deg"].items())]
+    if r.get("cmt_designed_paper_model") is not None:
+        lines.append(f"13-DoF plant: the same gait on the paper's design model has c_mt "
+                     f"{r['cmt_designed_paper_model']:.4f}; stance spring peak {r['stance_spring_peak_deg']:.1f} deg, "
+                     f"swing spring peak {r['swing_spring_peak_deg']:.1f} deg, stance toe drift up to "
+                     f"{100 * r['max_toe_drift_m']:.1f} cm, stance toe off the ground "
+                     f"{100 * r['stance_toe_airborne_fraction']:.1f} % of the time")
     if r.get("max_abs_eigenvalue") is not None:
         lines.append(f"Poincaré max |eig| of the gait under this controller: {r['max_abs_eigenvalue']:.4f}")
     return "\n".join(lines)

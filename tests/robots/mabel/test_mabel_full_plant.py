@@ -1,0 +1,109 @@
+"""MABEL's walking controllers on the 13-DoF plant (``walk mabel --plant full``): the
+design-to-robot gap of the compliant-HZD paper (Sections V-A, V-C, VI-C) in simulation.
+
+Oracles: the stance model the gaits are designed on (the 13-DoF state built from a stance state
+reads back that stance state; with rigid cables the two models share their kinematics), the
+mirror symmetry of the relabelling, and the paper's Exp. 1 measurements (PD + feedforward
+tracking error of the stance motor leg shape; realised c_mt about three times the designed)."""
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+import pytest
+
+from helpers import expect_usage_error
+
+from bipedlab.robots.mabel import dynamics as mdyn
+from bipedlab.robots.mabel import model as mm
+from bipedlab.robots.mabel import transmission as tr
+from bipedlab.robots.mabel.walking import full_plant as fp
+from bipedlab.robots.mabel.walking import study as wm
+
+#: Exp. 1 (PD + feedforward on the robot): RMSE of the stance motor leg-shape output, deg
+#: (Section V-D: "from 29.82 deg to 0.28 deg")
+PAPER_MLS_ST_RMSE_DEG = 29.82
+
+
+def _z_plus(gait="nominal"):
+    return jnp.asarray(wm.load_gait(gait)[2]["z_plus"])
+
+
+def test_initial_state_reads_back_the_stance_state():
+    """The 13-DoF state built from the nominal gait's post-impact stance state: its stance
+    coordinates (left leg in stance) are that state exactly, the stance toe is at the origin,
+    and both cables of both legs are unstretched (rigid-cable configuration)."""
+    z = _z_plus()
+    p = fp.initial_plant(z)
+    q, qd = fp.stance_state(p.x, p.stance)
+    np.testing.assert_allclose(np.asarray(q), np.asarray(z[:6]), rtol=0, atol=1e-14)
+    np.testing.assert_allclose(np.asarray(qd), np.asarray(z[6:]), rtol=0, atol=1e-12)
+    m = fp.plant_model()
+    toes = np.asarray(mdyn.toe_positions(m, p.x[:13]))
+    np.testing.assert_allclose(toes[0], 0.0, atol=1e-12)
+    named = {c: float(p.x[i]) for i, c in enumerate(mm.COORDS_13)}
+    for s in ("L", "R"):
+        lam = tr.cable_stretch(*(named[f"{c}_{s}"] for c in tr.LOCAL))
+        np.testing.assert_allclose(np.asarray(lam, float), 0.0, atol=1e-12)
+
+
+def test_relabelling_is_the_mirror():
+    """A state with the legs swapped, read with the right leg in stance, gives the stance
+    coordinates of the original with the left leg in stance; the torques of the right-stance
+    controller go to the right leg's motors first."""
+    x = np.asarray(fp.initial_plant(_z_plus()).x)
+    swap = [mm.COORDS_13.index(c.replace("_L", "_X").replace("_R", "_L").replace("_X", "_R")) for c in mm.COORDS_13]
+    xs = np.concatenate([x[:13][swap], x[13:26][swap], x[26:][::-1]])
+    for a, b in zip(fp.stance_state(jnp.asarray(xs), 1), fp.stance_state(jnp.asarray(x), 0)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    u = jnp.asarray([1.0, 2.0, 3.0, 4.0])
+    np.testing.assert_array_equal(np.asarray(fp.actuator_torques(u, 1)), [3.0, 4.0, 1.0, 2.0])
+    np.testing.assert_array_equal(np.asarray(fp.actuator_torques(u, 0)), [1.0, 2.0, 3.0, 4.0])
+
+
+def _walk(steps):
+    return wm.walk("nominal", "pdff", steps, plant="full")
+
+
+def test_nominal_gait_on_the_full_plant_shows_the_papers_gap():
+    """The nominal gait under PD + feedforward on encoders, 8 steps on the 13-DoF plant.
+
+    - It walks (no fall) and the record carries ``plant`` and ``cmt_designed``.
+    - The stance motor leg-shape tracking error grows from about 1 deg RMS on the stance
+      model (golden record cli_walk_mabel: 1.08 deg) to the size the paper measured on the
+      robot in Exp. 1, 29.82 deg: asserted within a factor 2 (measured 27.4 deg over these
+      8 steps, 30.4 over 100). Cable stretch between the motor and the leg is what the output
+      sees: the motor angle moves while the leg shape is held by the spring.
+    - The swing spring is not held at rest (Fig. 15): it deflects by more than 1 deg.
+    - The realised c_mt exceeds the designed one (paper: about 0.15 against 0.0452). Against
+      the gait's own design model (motor friction and spring damping included, 0.1435) the
+      ratio is 1.37 here; against the same decision vector on the HZD paper's design model (no
+      friction or damping, 0.101) it is about 2 (1.95 over 8 steps, 2.03 over 100): the factor
+      the paper's design-to-robot gap is measured with; asserted >= 1.8."""
+    r = _walk(8)
+    assert r["plant"] == "full" and r["fell"] is False and r["steps_completed"] == 8
+    assert r["cmt_designed"] == pytest.approx(wm.load_gait("nominal")[2]["design"]["cmt"])
+    rms = r["tracking_rms_deg"]["mLS_st"]
+    assert PAPER_MLS_ST_RMSE_DEG / 2 <= rms <= 2 * PAPER_MLS_ST_RMSE_DEG
+    assert r["swing_spring_peak_deg"] > 1.0
+    assert r["cmt"] > r["cmt_designed"]
+    assert r["cmt_designed_paper_model"] < r["cmt_designed"]
+    assert r["cmt_ratio_paper_model"] >= 1.8
+
+
+@pytest.mark.slow
+def test_nominal_gait_walks_100_steps_on_the_full_plant():
+    """100 steps as the experiments ran: no fall; realised c_mt at least twice the designed
+    one on the paper's design model (measured 0.206 / 0.101 = 2.03; the paper's robot: about
+    3.3); the left and right stance steps alternate in speed (period-two gait, measured
+    0.53 / 1.02 m/s), the PD + feedforward loop's alternating Poincaré mode (eigenvalue
+    -0.89 on the stance model) grown into an alternation on this plant."""
+    r = _walk(100)
+    assert r["fell"] is False and r["steps_completed"] == 100
+    assert r["cmt_ratio_paper_model"] >= 2.0
+    assert abs(r["speed_left_stance_mps"] - r["speed_right_stance_mps"]) > 0.1
+
+
+@pytest.mark.parametrize("extra", [["--push", "78@2"], ["--impact-scale", "0.97"]])
+def test_full_plant_refuses_stance_model_options(extra, capsys):
+    """A push and the impact scaling are stance-model options: one line, exit 2."""
+    expect_usage_error(["walk", "mabel", "--plant", "full", "--steps", "4", *extra], capsys, "--plant full")
