@@ -182,6 +182,7 @@ QUICK_PUSH_STEP, QUICK_PUSH_STEPS = 3, 9
 QUICK_ETAS = (1.0, 0.98, 0.966)
 QUICK_ETA_STEPS, QUICK_ETA_AVERAGE = 12, 5
 QUICK_LEAN_STEPS, QUICK_FAST_STEPS = 10, 5
+QUICK_PD_SCALES = (0.75, 1.0, 1.5)
 
 
 def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick_expected, **options):
@@ -212,6 +213,12 @@ HZD_EXPERIMENTS = (
     _walk_exp("fast", "bipedlab experiment mabel fast", 100, QUICK_FAST_STEPS,
               f"the 0.7 rad lean in {QUICK_LEAN_STEPS} increments instead of 30, then {QUICK_FAST_STEPS} steps instead "
               "of 100; no comparison runs", 500, 25, lean_steps=QUICK_LEAN_STEPS, comparisons=False),
+    Experiment("pd-gains", "bipedlab experiment mabel pd-gains", _wx("pd-gains"), dict(steps=None),
+               dict(steps=None, options=dict(kp_scales=list(QUICK_PD_SCALES), kd_scales=list(QUICK_PD_SCALES))),
+               reduction=f"factors {{{', '.join(f'{a:g}' for a in QUICK_PD_SCALES)}}} on kp and on kd (a 3 x 3 grid "
+               "instead of 5 x 5)", expected_s=240, quick_expected_s=110),
+    _walk_exp("exp4", "bipedlab experiment mabel exp4", 30, QUICK_WALK_STEPS,
+              f"{QUICK_WALK_STEPS} steps instead of 30; no run without the 6/10 N m limits", 300, 20, compare=False),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
@@ -260,6 +267,22 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     for eta in ETAS:
         row = next((r for r in (imp or {}).get("rows", []) if abs(r["eta"] - eta) < 1e-9), None)
         out[f"table1_{_eta_key(eta)}"] = (row["steady_speed_mps"] if row is not None else skip)
+    out["table1_dv_deta"] = (Skip("fewer than two etas walked without a fall") if imp and dig(imp, "dv_deta") is None
+                             else dig(imp, "dv_deta") if imp else skip)
+    pdg = records.get("pd-gains")
+    for g in ("nominal", "efficient"):
+        out[f"{g}_eig_pdff_closest_gains"] = (
+            (dig(pdg, "closest_to_paper", g, "dominant_eigenvalue", "abs") or Skip("no grid point had a fixed point"))
+            if pdg else Skip("not run"))
+    ex4 = records.get("exp4")
+    for key, field in (("exp4_speed_mps", "speed_mps"), ("exp4_cmt", "cmt")):
+        if not ex4:
+            out[key] = skip
+        elif ex4["fell"]:
+            out[key] = Skip(f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) "
+                            "under the 6 / 10 N m limits: a fallen run has no speed or c_mt (see experiment exp4)")
+        else:
+            out[key] = dig(ex4, field)
     fast = records.get("fast")
     out["fast_sustained_mps"] = dig(fast, "speed_after_lean_mps") if fast else skip
     out["fast_top_mps"] = (max(fast["speed_per_step"]) if fast and fast.get("speed_per_step") else skip)
@@ -322,7 +345,10 @@ PAPERS = [
                    Figure("design", "nominal/gait_toe_com.png", "Nominal gait: swing toe height and centre of mass (cf. paper Fig. 8)"),
                    Figure("design", "efficient/gait_power.png", "c_mt gait: power at the stance leg shape, motor and spring (cf. paper Fig. 9)"),
                    Figure("design", "poincare_eigenvalues.png", "Poincaré eigenvalues of both gaits in the unit circle "
-                          "(cf. paper Sec. IV, eq. 49)")),
+                          "(cf. paper Sec. IV, eq. 49)"),
+                   Figure("pd-gains", "pd_gains_eigenvalues.png", "PD + feedforward, full map (eq. 44): dominant "
+                          "|eigenvalue| against common factors on the shipped kp and kd, beside the paper's 0.6921 / "
+                          "0.8194 (cf. paper Sec. IV-A)")),
           animations=(Figure("nominal", "walk.html", "MABEL walking the nominal gait under PD + feedforward (logged "
                              "trajectory, stick figure; stance leg blue)", kind="animation"),)),
 ]

@@ -16,6 +16,12 @@
   model-based velocity observer, 100 steps after the lean.
 - ``sweep``: gaits designed from 0.6 to 1.6 m/s by continuation, with their restricted-map
   eigenvalues computed in one batched (vmapped) call.
+- ``pd-gains`` (Section IV-A): the dominant eigenvalue of the full-order Poincaré map (eq. 44)
+  under PD + feedforward (eq. 43) of the nominal and the efficient gait, over a grid of common
+  factors on the shipped kp and kd; the gains nearest the paper's 0.6921 / 0.8194.
+- ``exp4`` (Exp. 4): the nominal gait under the compliant-HZD controller (I/O linearisation with
+  corrections), 14-bit encoders at 1 kHz, with the experiment's torque saturation (6 N m leg
+  angle, 10 N m leg shape), and the same run at the drivetrain's limits.
 """
 from __future__ import annotations
 
@@ -26,12 +32,13 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.robots.mabel.walking import design as md
+from bipedlab.robots.mabel.walking import loop as sw
 from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
 from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import study as wm
 
-NAMES = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep")
+NAMES = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4")
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
 PUSHES = (78.0, -71.0)
 #: pushes the decentralised HZD controller survives in this model (N, + forward)
@@ -268,11 +275,33 @@ def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized"
                            torso_peak_deg=dict(pdff=3.1, iolin=2.4), mLS_st_peak_deg=dict(pdff=59.1, iolin=39.5)))
 
 
+def speed_sensitivity(etas, speeds):
+    """dv/deta (m/s per unit eta): the slope of the least-squares line v = a + b eta through the
+    (eta, speed) pairs whose speed is not None (a fallen run has none); None with fewer than two
+    such pairs or a single eta."""
+    pts = [(float(e), float(v)) for e, v in zip(etas, speeds) if v is not None]
+    if len(pts) < 2:
+        return None
+    e, v = np.asarray(pts).T
+    de = e - e.mean()
+    if not np.any(de):
+        return None
+    return float(np.sum(de * (v - v.mean())) / np.sum(de**2))
+
+
+def paper_speed_sensitivity() -> float:
+    """dv/deta of the paper's Table I (the same least-squares line through its six rows)."""
+    table = wm.PAPER["impact_scaling"]
+    return speed_sensitivity(list(table), list(table.values()))
+
+
 def impact_scaling(steps, progress, out, etas=ETAS, average=10, pdff_column=True):
     """Table I is a simulation of the nominal fixed point: here under the compliant-HZD
     controller with exact sensing (the model's own closed loop), and beside it (``pdff_column``)
     PD + feedforward with encoders (the experiment's controller). The steady speed is the mean
-    over the last ``average`` steps."""
+    over the last ``average`` steps. ``dv_deta``: the speed's sensitivity to eta (m/s per unit
+    eta, :func:`speed_sensitivity` through the etas run), beside the paper's
+    (``dv_deta_paper``, the same fit through Table I's six rows)."""
     steps = steps or 40
     columns = (("", "iolin", "ideal"), ("pdff_", "pdff", "encoders"))[: 2 if pdff_column else 1]
     rows = []
@@ -286,8 +315,163 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=10, pdff_column=True
                         f"{key}steady_speed_mps": float(np.mean(sp[-average:])) if ok else None})
         rows.append(row)
     ok = [x["steady_speed_mps"] for x in rows if x["steady_speed_mps"] is not None]
-    return dict(experiment="impact-scaling", controller="iolin", sensing="ideal", rows=rows,
-                speed_rises_as_eta_falls=bool(len(ok) == len(rows) and all(np.diff(ok) > 0)))
+    e = [x["eta"] for x in rows]
+    rec = dict(experiment="impact-scaling", controller="iolin", sensing="ideal", rows=rows,
+               speed_rises_as_eta_falls=bool(len(ok) == len(rows) and all(np.diff(ok) > 0)),
+               dv_deta=speed_sensitivity(e, [x["steady_speed_mps"] for x in rows]),
+               dv_deta_paper=paper_speed_sensitivity(),
+               dv_deta_paper_same_etas=speed_sensitivity(e, [x["paper_speed_mps"] for x in rows]))
+    if pdff_column:
+        rec["pdff_dv_deta"] = speed_sensitivity(e, [x["pdff_steady_speed_mps"] for x in rows])
+    return rec
+
+
+# ----------------------------------------------------------------------------- pd-gains
+#: common factors on the shipped PD gains (every output's kp; every output's kd) of pd-gains
+PD_SCALES = (0.5, 0.75, 1.0, 1.5, 2.0)
+PD_GAITS = ("nominal", "efficient")
+#: the paper's dominant eigenvalue of the full map under PD + feedforward (Sec. IV-A)
+PD_PAPER = {"nominal": wm.PAPER["eig_pdff_nominal"], "efficient": wm.PAPER["eig_pdff_efficient"]}
+#: a fixed point counts as found when |P(z) - z| is below this (Newton with the
+#: central-difference Jacobian of :func:`~bipedlab.robots.mabel.walking.poincare.pd_fixed_points`)
+PD_RESIDUAL = 1e-6
+
+
+def _eig(ev) -> dict:
+    e = complex(ev)
+    return dict(re=e.real, im=e.imag, complex=[e.real, e.imag], abs=abs(e))
+
+
+def pd_gains(steps, progress, out, kp_scales=PD_SCALES, kd_scales=PD_SCALES, gaits=PD_GAITS):
+    """Section IV-A: the dominant eigenvalue of the full-order Poincaré map (eq. 44) under PD +
+    feedforward (eq. 43) as a function of the PD gains: every output's kp times a common factor
+    (``kp_scales``) and every output's kd times another (``kd_scales``), on each gait of
+    ``gaits`` (its own u* regression and constraints). All fixed points are found together
+    (:func:`~bipedlab.robots.mabel.walking.poincare.pd_fixed_points`: the gains and the gait are
+    data of one compiled map). A grid point whose map is not finite (the walk leaves the model's
+    range within a step) or whose Newton iteration does not reach PD_RESIDUAL has no eigenvalue.
+    The shipped gains (factor 1, 1) are always evaluated (``studies_gains``)."""
+    if steps is not None:
+        raise ValueError("pd-gains: --steps does not apply (the experiment linearises return maps, it does not walk)")
+    say = progress or (lambda msg: None)
+    m = wk.walking_model()
+    pts = [(a, b) for a in kp_scales for b in kd_scales]
+    if (1.0, 1.0) not in pts:
+        pts.append((1.0, 1.0))
+    G, V, Z, where = [], [], [], []
+    base = {}
+    for gait in gaits:
+        vc, g, rec = wm.load_gait(gait)
+        z0, _ = md.section_state(m, wm._design_from_record(rec))
+        base[gait] = g
+        for a, b in pts:
+            G.append(g.replace(kp=g.kp * a, kd=g.kd * b))
+            V.append(vc)
+            Z.append(np.asarray(z0))
+            where.append((gait, a, b))
+    say(f"pd-gains: fixed points of the PD + feedforward map at {len(G)} (gait, gains) pairs")
+    t0 = time.perf_counter()
+    z, J, res, its = mp.pd_fixed_points(m, G, V, np.asarray(Z))
+    solve_s = time.perf_counter() - t0
+    grid = {gait: [] for gait in gaits}
+    for (gait, a, b), Jk, r in zip(where, J, res):
+        ok = bool(np.isfinite(r) and r < PD_RESIDUAL and np.all(np.isfinite(Jk)))
+        ev = mp.eigenvalues(Jk) if ok else None
+        g = base[gait]
+        grid[gait].append(dict(kp_scale=a, kd_scale=b, kp=[float(v) for v in np.asarray(g.kp) * a],
+                               kd=[float(v) for v in np.asarray(g.kd) * b], fixed_point_found=ok,
+                               fixed_point_residual=float(r) if np.isfinite(r) else None,
+                               dominant_eigenvalue=_eig(ev[0]) if ok else None,
+                               stable=bool(ok and abs(ev[0]) < 1.0)))
+    closest, studies, dominant = {}, {}, {}
+    for gait in gaits:
+        rows = grid[gait]
+        found = [x for x in rows if x["dominant_eigenvalue"] is not None]
+        best = min(found, key=lambda x: abs(x["dominant_eigenvalue"]["abs"] - PD_PAPER[gait]), default=None)
+        closest[gait] = None if best is None else dict(
+            kp_scale=best["kp_scale"], kd_scale=best["kd_scale"], kp=best["kp"], kd=best["kd"],
+            dominant_eigenvalue=best["dominant_eigenvalue"], paper_abs=PD_PAPER[gait],
+            difference=best["dominant_eigenvalue"]["abs"] - PD_PAPER[gait])
+        own = next(x for x in rows if (x["kp_scale"], x["kd_scale"]) == (1.0, 1.0))
+        studies[gait] = dict(kp=own["kp"], kd=own["kd"], dominant_eigenvalue=own["dominant_eigenvalue"],
+                             stored_in_gait_file=wm.load_gait(gait)[2].get("poincare", {}).get("pdff", {}).get(
+                                 "poincare_eigenvalues_complex", [None])[0])
+        dominant[gait] = [[x["kp_scale"], x["kd_scale"], x["dominant_eigenvalue"]] for x in rows
+                          if (x["kp_scale"], x["kd_scale"]) in [(a, b) for a in kp_scales for b in kd_scales]]
+    rec = dict(experiment="pd-gains", controller="pdff", map="full order (eq. 44)",
+               gains_grid=dict(kp_scales=list(kp_scales), kd_scales=list(kd_scales),
+                               shipped_kp={k: [float(v) for v in np.asarray(g.kp)] for k, g in base.items()},
+                               shipped_kd={k: [float(v) for v in np.asarray(g.kd)] for k, g in base.items()},
+                               points=grid),
+               dominant_eigenvalue=dominant, closest_to_paper=closest, studies_gains=studies,
+               paper=dict(PD_PAPER), map_passes=its, fixed_point_tolerance=PD_RESIDUAL, solve_s=solve_s)
+    if out:
+        from bipedlab.robots.mabel.walking import plots as wp
+
+        rec["figures"] = [wp.pd_gain_figure(out, rec)]
+    return rec
+
+
+# ----------------------------------------------------------------------------- exp4
+#: Exp. 4's torque saturation (N m) in actuator order (mLA_st, mLS_st, mLA_sw, mLS_sw): 6 on
+#: the leg-angle motors, 10 on the leg-shape motors (Fig. 13 caption)
+EXP4_LIMITS = (6.0, 10.0, 6.0, 10.0)
+#: the drivetrain's limits (N m), the other runs' saturation
+DRIVE_LIMITS = (30.0, 55.0, 30.0, 55.0)
+ACTUATORS = ("mLA_st", "mLS_st", "mLA_sw", "mLS_sw")
+EXP4_PAPER = dict(speed_mps=0.9, cmt=0.18, torso_rms_deg=0.89, torso_peak_deg=2.4, mLS_st_rms_deg=0.28,
+                  mLS_st_peak_deg=39.5)
+
+
+def limited_walk(gait, controller, steps, limits, sensing="encoders", progress=None) -> dict:
+    """A walk of ``gait`` under ``controller`` with the gait's gains saturated at ``limits``
+    (N m, actuator order), built as :func:`~bipedlab.robots.mabel.walking.study.run_walk` does
+    (the limits are data of the compiled loop); :func:`~bipedlab.robots.mabel.walking.study.metrics`
+    plus the fraction of samples in saturation per motor and the peak torques, both over the
+    samples up to the last touchdown (or the fall)."""
+    vc, gains, rec = wm.load_gait(gait)
+    gains = gains.replace(limit=jnp.asarray(limits, float))
+    m = wk.walking_model()
+    setup = wm.setup_for(vc, gains, rec["design"]["period"], sensing=sensing)
+    cb = None
+    if progress is not None:
+        cb = lambda k, n: progress(f"step {k}/{n}")  # noqa: E731
+    s, log = sw.simulate(m, controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
+    r = wm.metrics(s, log)
+    touched = np.nonzero(log["touched"])[0]
+    if r["fell"] and int(s.failed_at) >= 0:
+        n = int(s.failed_at) + 1
+    else:
+        n = int(touched[-1]) + 1 if touched.size else len(log["u"])
+    u = np.asarray(log["u"][:n])
+    lim = np.asarray(limits, float)
+    at = np.abs(u) >= lim * (1 - 1e-9)
+    r.update(gait=gait, controller=controller, sensing=sensing, torque_limits_nm=[float(v) for v in lim],
+             samples=int(n), saturation_fraction={a: float(f) for a, f in zip(ACTUATORS, np.mean(at, 0))},
+             peak_torques_nm=[float(v) for v in np.max(np.abs(u), 0)],
+             designed_speed_mps=float(rec["design"]["speed"]))
+    return r
+
+
+def _exp4_row(r) -> dict:
+    keys = ("fell", "fell_at_s", "steps_completed", "speed_mps", "cmt", "torque_limits_nm", "saturation_fraction",
+            "peak_torques_nm", "tracking_rms_deg", "tracking_peak_deg", "speed_per_step", "samples")
+    return dict({k: r[k] for k in keys}, fell_in_step=r["steps_completed"] + 1 if r["fell"] else None)
+
+
+def exp4(steps, progress, out, compare=True):
+    """Exp. 4: the nominal (Exp. 1) gait under the compliant-HZD controller (I/O linearisation
+    with the hybrid-invariance corrections, ``iolin``), 14-bit encoders at 1 kHz, with the
+    experiment's saturation EXP4_LIMITS; ``steps`` (default 30). A fallen run has no speed
+    (``speed_mps`` None) and gives the step and time of the fall. ``without_limits``: the same
+    run at the drivetrain's limits (30 / 55 N m); ``compare`` False leaves it out."""
+    n = steps or 30
+    r = _exp4_row(limited_walk("nominal", "iolin", n, EXP4_LIMITS, progress=progress))
+    rec = dict(experiment="exp4", gait="nominal", controller="iolin", sensing="encoders", steps=n, **r,
+               paper=dict(EXP4_PAPER, torque_limits_nm=list(EXP4_LIMITS)))
+    if compare:
+        rec["without_limits"] = _exp4_row(limited_walk("nominal", "iolin", n, DRIVE_LIMITS, progress=progress))
+    return rec
 
 
 FAST_LEAN_DEG = float(np.degrees(0.7))
@@ -379,7 +563,7 @@ def sweep(steps, progress, out):
 
 
 _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tracking,
-        "impact-scaling": impact_scaling, "fast": fast, "sweep": sweep}
+        "impact-scaling": impact_scaling, "fast": fast, "sweep": sweep, "pd-gains": pd_gains, "exp4": exp4}
 
 
 def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
@@ -446,9 +630,21 @@ def summary(r: dict) -> str:
         lines = ["eta    HZD (m/s)   PD+FF (m/s)   paper"]
         for x in r["rows"]:
             s = "fell" if x["steady_speed_mps"] is None else f"{x['steady_speed_mps']:.3f}"
-            p = "fell" if x["pdff_steady_speed_mps"] is None else f"{x['pdff_steady_speed_mps']:.3f}"
+            p = ("not run" if "pdff_steady_speed_mps" not in x else "fell" if x["pdff_steady_speed_mps"] is None
+                 else f"{x['pdff_steady_speed_mps']:.3f}")
             lines.append(f"{x['eta']:<6} {s:>9}   {p:>11}   {x['paper_speed_mps']:.2f}")
+        if "dv_deta_paper" in r:
+            def slope(v):
+                return "n/a" if v is None else f"{v:+.2f}"
+
+            lines.append(f"dv/deta (least-squares line, m/s per unit eta): HZD {slope(r['dv_deta'])}"
+                         + (f", PD+FF {slope(r['pdff_dv_deta'])}" if "pdff_dv_deta" in r else "")
+                         + f"; paper (Table I) {slope(r['dv_deta_paper'])}")
         return "\n".join(lines)
+    if name == "pd-gains":
+        return summary_pd_gains(r)
+    if name == "exp4":
+        return summary_exp4(r)
     if name == "sweep":
         lines = ["speed   step (m)  c_mt    max|eig|"]
         for x in r["rows"]:
@@ -459,3 +655,60 @@ def summary(r: dict) -> str:
         lines.append(f"design {r['design_s']:.1f} s; eigenvalues of all gaits in one batched call {r['eigen_batched_s']:.1f} s")
         return "\n".join(lines)
     return str(r)
+
+
+def _ev_text(e) -> str:
+    if e is None:
+        return "no fixed point"
+    return f"{e['re']:+.4f}{e['im']:+.4f}j (|.| {e['abs']:.4f})"
+
+
+def summary_pd_gains(r: dict) -> str:
+    g = r["gains_grid"]
+    lines = [f"PD + feedforward, full-order map (eq. 44): dominant eigenvalue |.| over kp x {g['kp_scales']} "
+             f"(rows) and kd x {g['kd_scales']} (columns) of the shipped gains"]
+    for gait, rows in g["points"].items():
+        lines.append(f"{gait}: paper {r['paper'][gait]:.4f}")
+        for a in g["kp_scales"]:
+            cells = []
+            for b in g["kd_scales"]:
+                x = next(x for x in rows if (x["kp_scale"], x["kd_scale"]) == (a, b))
+                e = x["dominant_eigenvalue"]
+                cells.append("   --  " if e is None else f"{e['abs']:7.4f}")
+            lines.append(f"  kp x {a:<5g}" + " ".join(cells))
+        c = r["closest_to_paper"][gait]
+        if c is not None:
+            lines.append(f"  closest to the paper: kp x {c['kp_scale']:g}, kd x {c['kd_scale']:g} "
+                         f"(kp {c['kp']}, kd {c['kd']}): {_ev_text(c['dominant_eigenvalue'])}")
+        s = r["studies_gains"][gait]
+        lines.append(f"  the studies' gains (kp {s['kp']}, kd {s['kd']}): {_ev_text(s['dominant_eigenvalue'])}")
+        ev = [x["dominant_eigenvalue"] for x in rows if x["dominant_eigenvalue"] is not None]
+        if ev:
+            mags = [e["abs"] for e in ev]
+            neg = sum(e["re"] < 0 and abs(e["im"]) < 1e-12 for e in ev)
+            lines.append(f"  stable at {sum(m < 1 for m in mags)} of {len(rows)} grid points; |.| from {min(mags):.3f} "
+                         f"to {max(mags):.3f}; real and negative (alternating) at {neg}")
+    lines.append("The walking studies use the PD gains shipped with the gaits (controllers.default_gains, the same for "
+                 "every gait, tuned on the nominal gait for a stable map and small tracking errors): the gains every "
+                 "walk loads. The paper does not publish its PD gains, so its eigenvalues fix no gains here; the sweep "
+                 "shows the dominant eigenvalue moving widely with the gains (above), so a difference from the paper's "
+                 "value at the shipped gains says little about the model, and gains near the paper's value exist.")
+    return "\n".join(lines)
+
+
+def summary_exp4(r: dict) -> str:
+    def one(x, label):
+        head = (f"{label}: FELL in step {x['steps_completed'] + 1} at {x['fell_at_s']:.3f} s (no speed)" if x["fell"]
+                else f"{label}: {x['steps_completed']} steps at {x['speed_mps']:.3f} m/s, c_mt "
+                     + ("n/a" if x["cmt"] is None else f"{x['cmt']:.3f}"))
+        sat = ", ".join(f"{k} {100 * v:.2f} %" for k, v in x["saturation_fraction"].items())
+        lim = "/".join(f"{v:g}" for v in x["torque_limits_nm"])
+        return [head, f"  limits {lim} N m; samples in saturation: {sat}; peak torques "
+                + ", ".join(f"{v:.1f}" for v in x["peak_torques_nm"]) + " N m",
+                "  tracking rms / peak (deg): " + ", ".join(
+                    f"{k} {x['tracking_rms_deg'][k]:.2f} / {x['tracking_peak_deg'][k]:.2f}" for k in x["tracking_rms_deg"])]
+    lines = one(r, "Exp. 4, compliant-HZD controller (iolin), encoders, 1 kHz")
+    if "without_limits" in r:
+        lines += one(r["without_limits"], "same without the 6/10 N m limits (30/55 N m)")
+    lines.append("paper (robot): 0.9 m/s, c_mt 0.18; torso rms 0.89 deg (peak 2.4), q_mLS_st rms 0.28 deg (peak 39.5)")
+    return "\n".join(lines)

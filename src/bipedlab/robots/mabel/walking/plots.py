@@ -178,3 +178,37 @@ def walk_animation(path, log: dict, step_lengths, seconds: float = 6.0, fps: flo
     frames = np.stack([np.stack([pts[:, a], pts[:, b]], axis=1) for a, b in DRAW_SEGMENTS], axis=1)
     return animation.write(path, frames, t[keep], ground=0.0, colors=["#444444", "#1f77b4", "#1f77b4", "#d62728", "#d62728"],
                            widths=[5.0, 2.5, 2.5, 2.5, 2.5], follow=True, title="MABEL walking")
+
+
+def pd_gain_figure(out, rec: dict) -> str:
+    """``experiment mabel pd-gains``: dominant |eigenvalue| of the PD + feedforward map (eq. 44)
+    against the common factor on kd, one line per factor on kp, one panel per gait; the paper's
+    value (Sec. IV-A) and the unit circle as horizontal lines, the studies' gains circled."""
+    out = figures.output_dir(out)
+    grid = rec["gains_grid"]
+    gaits = list(grid["points"])
+    fig, axs = figures.subplots(1, len(gaits), figsize=(5.2 * len(gaits), 4.0), squeeze=False)
+    for ax, gait in zip(axs[0], gaits):
+        rows = grid["points"][gait]
+        for a in grid["kp_scales"]:
+            pts = [(x["kd_scale"], x["dominant_eigenvalue"]["abs"]) for x in rows
+                   if x["kp_scale"] == a and x["dominant_eigenvalue"] is not None and x["kd_scale"] in grid["kd_scales"]]
+            if pts:
+                b, v = np.asarray(sorted(pts)).T
+                ax.plot(b, v, "o-", ms=4, label=f"kp x {a:g}")
+        ax.axhline(rec["paper"][gait], color="k", ls="--", lw=1, label=f"paper {rec['paper'][gait]:.4f}")
+        ax.axhline(1.0, color="r", ls=":", lw=1, label="|eig| = 1")
+        own = rec["studies_gains"][gait]["dominant_eigenvalue"]
+        if own is not None:
+            ax.plot([1.0], [own["abs"]], "ks", ms=9, mfc="none", label="studies' gains")
+        ax.set_xscale("log")
+        ax.set_xticks(grid["kd_scales"])
+        ax.set_xticklabels([f"{b:g}" for b in grid["kd_scales"]])
+        ax.minorticks_off()
+        ax.set_xlabel("factor on the shipped kd")
+        ax.set_ylabel("dominant |eigenvalue|")
+        top = max([x["dominant_eigenvalue"]["abs"] for x in rows if x["dominant_eigenvalue"] is not None] + [1.2])
+        ax.set_ylim(0.0, min(3.0, 1.05 * top))
+        ax.set_title(f"{gait} gait: PD + feedforward, full map (eq. 44)", fontsize=9)
+        ax.legend(fontsize=7)
+    return figures.save(fig, out / "pd_gains_eigenvalues.png")

@@ -103,3 +103,86 @@ def restricted_map(m, nominal, x, eta=1.0, nodes=NODES):
     f = zd.zero_dynamics(m, vc)
     w = _phase_run(f, vcm.SI, w, th_sc, vc.theta_si, n3)
     return w[:3]
+
+
+# ----------------------------------------------------------------------------- PD gain scans
+
+#: rows per call of the batched PD + feedforward map: a fixed batch, so that one compiled
+#: program serves every gait, gain and grid size (rows are padded up to a multiple of it)
+PD_BATCH = 100
+#: central-difference step of the batched Jacobian (times max(1, |z_i|))
+PD_FD_STEP = 1e-6
+
+
+_PD_MAPS: dict = {}
+
+
+def _pd_map_batch(m):
+    """(gains, constraints, z), each batched on a leading axis of PD_BATCH rows -> P(z) of
+    eq. 44 under PD + feedforward, row by row: the gains and the gait are data, so one
+    compilation (per process, per model) serves all."""
+    f = _PD_MAPS.get(id(m))
+    if f is None:
+        f = _PD_MAPS[id(m)] = jax.jit(jax.vmap(lambda g, vc, z: full_map(m, "pdff", g, vc, z)))
+    return f
+
+
+def _stack(trees):
+    return jax.tree_util.tree_map(lambda *a: jnp.stack([jnp.asarray(x) for x in a]), *trees)
+
+
+def _pd_eval(m, gains: list, vcs: list, zs: np.ndarray) -> np.ndarray:
+    """P(z_i) under (gains[i], vcs[i]) for every row i, in fixed batches of PD_BATCH."""
+    f = _pd_map_batch(m)
+    n = len(zs)
+    out = []
+    for a in range(0, n, PD_BATCH):
+        idx = list(range(a, min(a + PD_BATCH, n)))
+        idx += [idx[-1]] * (PD_BATCH - len(idx))  # pad with the last row
+        y = f(_stack([gains[i] for i in idx]), _stack([vcs[i] for i in idx]), jnp.asarray(zs[idx]))
+        out.append(np.asarray(y)[: min(PD_BATCH, n - a)])
+    return np.concatenate(out)
+
+
+def pd_fixed_points(m, gains: list, vcs: list, z0s, iterations: int = 10, tol: float = 1e-10):
+    """Fixed points of the full-order PD + feedforward map (eq. 44) and its Jacobians there, for
+    many (gains, gait) pairs at once: Newton's method on z = P(z) with the Jacobian by central
+    differences (step PD_FD_STEP * max(1, |z_i|)), every map evaluation of all pairs in the
+    batches of :func:`_pd_eval` (the map compiles once, for any gains and gait, where
+    :func:`~bipedlab.robots.mabel.walking.study.poincare` compiles the exact forward-mode
+    Jacobian per gait and gains). A pair whose map is not finite keeps NaN. Returns (z (N, 12),
+    J (N, 12, 12), residual (N,), passes over the map: Newton steps taken plus one)."""
+    z = np.array(z0s, float)
+    n, k = z.shape
+    done = np.zeros(n, bool)
+    J = np.full((n, k, k), np.nan)
+    res = np.full(n, np.nan)
+    passes = 0
+    for it in range(iterations + 1):
+        todo = np.nonzero(~done)[0]
+        if todo.size == 0:
+            break
+        passes += 1
+        h = PD_FD_STEP * np.maximum(1.0, np.abs(z[todo]))  # (T, k)
+        rows = [z[todo]]
+        for sign in (1.0, -1.0):
+            for c in range(k):
+                e = np.zeros_like(z[todo])
+                e[:, c] = sign * h[:, c]
+                rows.append(z[todo] + e)
+        Z = np.stack(rows, 1).reshape(-1, k)  # (T * (2k + 1), k), pair-major
+        rep = np.repeat(todo, 2 * k + 1)
+        Y = _pd_eval(m, [gains[i] for i in rep], [vcs[i] for i in rep], Z).reshape(todo.size, 2 * k + 1, k)
+        fx = Y[:, 0]
+        # Y[:, 1 + c]: P at z + h_c e_c (axis 1 the perturbed column c); J[i, row, col]
+        Jt = np.transpose((Y[:, 1:k + 1] - Y[:, k + 1:]) / (2 * h[:, :, None]), (0, 2, 1))
+        J[todo] = Jt
+        r = fx - z[todo]
+        res[todo] = np.max(np.abs(r), 1)
+        bad = ~np.all(np.isfinite(Y.reshape(todo.size, -1)), 1)
+        conv = (res[todo] < tol) | bad | (it == iterations)
+        done[todo[conv]] = True
+        for j, i in enumerate(todo):
+            if not conv[j]:
+                z[i] = z[i] + np.linalg.lstsq(Jt[j] - np.eye(k), -r[j], rcond=None)[0]
+    return z, J, res, passes
