@@ -14,6 +14,9 @@
 - ``fast`` (Exp. 5): the nominal constraints with the torso leaned forward step by step (the
   experimenters' procedure) under the compliant-HZD controller, encoders read through the
   model-based velocity observer, 100 steps after the lean.
+- ``full-plant`` (Sections V-A, V-C, VI-C): the design-to-robot gap, the gaits under PD +
+  feedforward on the 13-DoF plant (cable stretch, compliant ground), realised against designed
+  c_mt, and Fig. 20.
 - ``sweep``: gaits designed from 0.6 to 1.6 m/s by continuation, with their restricted-map
   eigenvalues computed in one batched (vmapped) call.
 - ``pd-gains`` (Section IV-A): the dominant eigenvalue of the full-order Poincaré map (eq. 44)
@@ -38,7 +41,7 @@ from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import study as wm
 
-NAMES = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4")
+NAMES = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4", "full-plant")
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
 PUSHES = (78.0, -71.0)
 #: pushes the decentralised HZD controller survives in this model (N, + forward)
@@ -562,8 +565,29 @@ def sweep(steps, progress, out):
     return dict(experiment="sweep", rows=rows, design_s=design_s, eigen_batched_s=eig_s)
 
 
+#: the gaits walked on the 13-DoF plant: designed on the paper's design model (Exps. 1 and 3's
+#: torque and c_mt gaits) and on the full one (the experiments' gaits)
+GAP_GAITS = ("paper-nominal", "paper-efficient", "nominal", "efficient")
+#: Exps. 1 and 3 on the robot: realised c_mt against designed (Section V-C, Table II)
+GAP_PAPER = {"paper-nominal": dict(designed=0.0452, realised=0.15), "paper-efficient": dict(designed=0.0385, realised=0.14)}
+
+
+def full_plant(steps, progress, out, gaits=GAP_GAITS):
+    """The design-to-robot gap (Sections V-A, V-C, VI-C): each gait under PD + feedforward on
+    encoders at 1 kHz on the 13-DoF plant (:mod:`.full_plant`), beside its designed c_mt; Fig.
+    20 for the first gait when ``out`` is given."""
+    runs = {}
+    for k, g in enumerate(gaits):
+        if progress:
+            progress(f"{g} on the 13-DoF plant")
+        runs[g] = wm.walk(g, "pdff", steps or 100, plant="full", out=f"{out}/{g}" if out and k == 0 else None)
+    return dict(experiment="full-plant", controller="pdff", sensing="encoders", steps=steps or 100, runs=runs,
+                paper=GAP_PAPER)
+
+
 _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tracking,
-        "impact-scaling": impact_scaling, "fast": fast, "sweep": sweep, "pd-gains": pd_gains, "exp4": exp4}
+        "impact-scaling": impact_scaling, "fast": fast, "sweep": sweep, "pd-gains": pd_gains, "exp4": exp4,
+        "full-plant": full_plant}
 
 
 def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
@@ -576,8 +600,22 @@ def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
     return r
 
 
+def summary_full_plant(r: dict) -> str:
+    lines = [f"13-DoF plant, PD + feedforward on encoders, {r['steps']} steps per gait:"]
+    for g, x in r["runs"].items():
+        paper = r["paper"].get(g)
+        state = (f"FELL in step {x['steps_completed'] + 1}" if x["fell"] else
+                 f"{x['speed_mps']:.3f} m/s, c_mt {x['cmt']:.4f} = {x['cmt_ratio']:.2f} x designed {x['cmt_designed']:.4f}"
+                 f" ({x['cmt_ratio_paper_model']:.2f} x its c_mt on the paper's design model)")
+        lines.append(f"  {g:>15}: {state}; stance leg-shape motor tracking rms {x['tracking_rms_deg']['mLS_st']:.1f} deg"
+                     + (f"; paper: designed {paper['designed']}, realised {paper['realised']}" if paper else ""))
+    return "\n".join(lines)
+
+
 def summary(r: dict) -> str:
     name = r["experiment"]
+    if name == "full-plant":
+        return summary_full_plant(r)
     if name in ("nominal", "efficient", "fast"):
         text = wm.summary_walk(r)
         if name == "fast":

@@ -37,7 +37,10 @@ from bipedlab.robots.mabel.walking import loop as sw
 #: payload kind of MABEL gait files, and the format string of their version-1 files
 KIND = "mabel-compliant-hzd"
 FORMAT_V1 = "bipedlab-mabel-gait/1"
-GAITS = ("nominal", "efficient", "fast")
+#: shipped gaits: ``nominal``, ``efficient`` and ``fast`` designed on the full design model (the
+#: experiments walk them); ``paper-nominal`` and ``paper-efficient`` are what ``optimize mabel
+#: --speed 0.8 --cost torque|cmt`` gives on the default (paper) design model
+GAITS = ("nominal", "efficient", "fast", "paper-nominal", "paper-efficient")
 CONTROLLERS = ctl.KINDS
 OUTPUT_NAMES = vcm.OUTPUTS
 #: The paper's figures, for side-by-side reports.
@@ -106,17 +109,25 @@ def _eig_summary(J) -> dict:
                 poincare_eigenvalues_complex=[[float(e.real), float(e.imag)] for e in ev])
 
 
-def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_check: bool = False) -> dict:
+def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_check: bool = False,
+             design_model: str = "full") -> dict:
     """Eigenvalues of the restricted map (eq. 48, compliant HZD controller) and of the full
     closed-loop map (eq. 44) under each controller, at their own fixed points; with fd_check,
-    the largest relative difference between the autodiff and central-difference Jacobians."""
+    the largest relative difference between the autodiff and central-difference Jacobians.
+
+    The full maps run on the walking model (the plant of ``walk mabel``). The restricted map
+    runs on the zero dynamics the gait was designed on: for ``design_model="paper"`` those
+    have no friction or spring damping (the paper's eq. 48), and the walking model's zero
+    dynamics, which lose energy to both, have no periodic orbit near such a gait."""
     m = wk.walking_model()
+    m_zd = m if design_model == "full" else md.design_model(m, design_model)
     vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
-    z0, x0 = md.section_state(m, design)
+    z0, x0 = md.section_state(m_zd, design)
     out = {}
-    rho = lambda x: mp.restricted_map(m, vc, x)  # noqa: E731
+    rho = lambda x: mp.restricted_map(m_zd, vc, x)  # noqa: E731
     xs, J, res = mp.fixed_point(rho, x0)
-    out["hzd"] = dict(**_eig_summary(J), fixed_point_residual=res, map="restricted (eq. 48)")
+    out["hzd"] = dict(**_eig_summary(J), fixed_point_residual=res, map="restricted (eq. 48)",
+                      zero_dynamics=f"{design_model} design model" if design_model != "full" else "walking model")
     if fd_check:
         Jfd = mp.central_differences(rho, xs)
         out["hzd"]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
@@ -132,9 +143,10 @@ def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_chec
 
 # ----------------------------------------------------------------------------- optimize
 
-def _start_point(speed: float, cost: str, shipped_only: bool = False):
+def _start_point(speed: float, cost: str, shipped_only: bool = False, design_model: str = "paper"):
     """The hand-set guess near 0.8 m/s; otherwise (or with ``shipped_only``) the shipped gait
-    nearest in speed (continuation). Returns (x0, description, its step length or None)."""
+    nearest in speed (continuation), among those designed on ``design_model`` if any is.
+    Returns (x0, description, its step length or None)."""
     if abs(speed - 0.8) < 0.15 and not shipped_only:
         return md.initial_guess(speed), "hand-set initial guess", None
     best = None
@@ -143,7 +155,8 @@ def _start_point(speed: float, cost: str, shipped_only: bool = False):
             _, _, rec = load_gait(g)
         except (OSError, ValueError):
             continue
-        if best is None or abs(rec["speed"] - speed) < abs(best["speed"] - speed):
+        key = lambda r: (r.get("design_model", "full") != design_model, abs(r["speed"] - speed))  # noqa: E731
+        if best is None or key(rec) < key(best):
             best = rec
     if best is None:
         return md.initial_guess(speed), "hand-set initial guess", None
@@ -164,7 +177,7 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
     say = progress or (lambda msg: None)
     start, L0 = "given start", None
     if x0 is None:
-        x0, start, L0 = _start_point(speed, cost, shipped_only=step_length is not None)
+        x0, start, L0 = _start_point(speed, cost, shipped_only=step_length is not None, design_model=design_model)
     lengths = [None] if step_length is None else [step_length]
     if step_length is not None and L0 is not None:
         n = max(1, int(np.ceil(abs(step_length - L0) / STEP_CONTINUATION)))
@@ -204,7 +217,7 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
     pc = None
     if poincare_check:
         say("Poincaré analysis: restricted map (HZD) and full map under PD + feedforward")
-        pc = poincare(d, gains, controllers=("pdff",))
+        pc = poincare(d, gains, controllers=("pdff",), design_model=design_model)
     f = d.figures
     rec = dict(
         robot="mabel", speed_mps=float(f["speed"]), cost=cost, step_length_m=float(f["step_length"]),
