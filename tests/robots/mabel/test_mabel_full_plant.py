@@ -64,6 +64,7 @@ def _walk(steps):
     return wm.walk("nominal", "pdff", steps, plant="full")
 
 
+@pytest.mark.slow
 def test_nominal_gait_on_the_full_plant_shows_the_papers_gap():
     """The nominal gait under PD + feedforward on encoders, 8 steps on the 13-DoF plant.
 
@@ -113,8 +114,12 @@ def test_paper_design_gap_is_at_least_twofold():
     """The paper-nominal gait (designed on the paper's design model, the default of optimize
     mabel) under PD + feedforward on encoders, 8 steps on the 13-DoF plant: it walks, and the
     realised c_mt is at least twice the designed one, as on the robot (Sec. V-C: about three
-    times; measured here 2.31 over 20 steps)."""
+    times; measured here 2.30 over 8 and 20 steps). The realised c_mt is the robot's Exp. 1
+    value, 0.15, within 25 % (measured 0.142). The swing spring is not held at rest (Fig. 15):
+    it deflects by more than 1 deg (measured 2.6)."""
     r = wm.walk("paper-nominal", "pdff", 8, plant="full")
-    assert r["fell"] is False and r["steps_completed"] == 8
+    assert r["plant"] == "full" and r["fell"] is False and r["steps_completed"] == 8
     assert r["cmt_designed"] == pytest.approx(r["cmt_designed_paper_model"], rel=1e-6)
     assert r["cmt_ratio"] >= 2.0
+    assert r["cmt"] == pytest.approx(0.15, rel=0.25)
+    assert r["swing_spring_peak_deg"] > 1.0

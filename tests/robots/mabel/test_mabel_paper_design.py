@@ -74,6 +74,7 @@ def test_paper_gait_cost_and_step_as_this_model_has_them(shipped):
     assert nom["cmt"] > PAPER["cmt_nominal"] and nom["step_length"] < PAPER["step"]
 
 
+@pytest.mark.slow
 def test_optimize_reproduces_the_shipped_paper_gait(shipped):
     """``optimize mabel --speed 0.8 --cost torque`` from the package's hand-set guess lands on
     the shipped paper-nominal gait: the same speed, step and c_mt to 1e-6 relative (the solve
