@@ -123,3 +123,12 @@ def test_refused_pairing_does_fall():
     this long moves with the CPU's rounding, so any fall after step 50 is accepted)."""
     r = wm.walk("paper-efficient", "decentralized", 100)
     assert r["fell"] and 50 <= r["steps_completed"] < 100
+
+
+def test_efficient_gait_strikes_behind_and_is_refused(capsys):
+    """The full-model c_mt gait's swing toe strikes the ground behind the stance toe in the first
+    step (a negative step length, measured -0.21 m), so walk refuses it on the stance plant and
+    names the gait that walks instead."""
+    r = wm.walk("efficient", "pdff", 2)
+    assert r["step_lengths_m"][0] < 0.0
+    expect_usage_error(["walk", "mabel", "--gait", "efficient"], capsys, "paper-efficient")

@@ -43,7 +43,13 @@ FAST_GAIT_FALLS = {
 #: walks 100 steps
 GAIT_FALLS = {
     ("paper-efficient", "decentralized", "encoders"): (80, 36.19),
+    ("efficient", "decentralized", "encoders"): (3, 0.78), ("efficient", "decentralized", "observer"): (3, 0.83),
 }
+#: the full-model ``efficient`` gait: its swing toe clears the ground by at most 1.9 cm on the
+#: designed orbit, and under each pairing (measured: PD + feedforward on encoders, step lengths
+#: -0.21, +0.54, -0.26 m, ...) it strikes the ground behind the stance toe in the first step,
+#: about 0.17 s in, so the walk alternates backward and forward touchdowns (or falls, GAIT_FALLS)
+TOE_STRIKES = {"efficient"}
 
 
 def _out(p, what: str = "figures (PNG) and data (NPZ)") -> None:
@@ -136,6 +142,10 @@ def _walk_validate(args) -> None:
                          f"stance toe in step {strike} and it falls {t:.2f} s in, in step {steps + 1}); for fast "
                          f"walking lean the nominal gait forward (experiment mabel fast)")
     key = (args.gait or "nominal", *pairing)
+    if args.plant == "stance" and key[0] in TOE_STRIKES and key not in GAIT_FALLS:
+        raise UsageError(f"--gait {key[0]}: its swing toe clears the ground by 1.9 cm at most and strikes it behind "
+                         "the stance toe in the first step, so the walk alternates backward and forward touchdowns; "
+                         "walk paper-efficient, the c_mt gait of the paper's design model")
     if args.plant == "stance" and key in GAIT_FALLS:
         steps, t = GAIT_FALLS[key]
         raise UsageError(f"--gait {key[0]}: falls under {key[1]} with {key[2]} sensing in this model (in step "

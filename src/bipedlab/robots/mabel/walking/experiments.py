@@ -251,17 +251,23 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     return rec
 
 
+#: Exp. 3's gait: the c_mt gait of the paper's design model. The full-model ``efficient`` gait
+#: clears the ground by at most 1.9 cm on its designed orbit, and under every controller its
+#: swing toe strikes the ground behind the stance toe in the first step (cli.GAIT_FALLS)
+EXP3_GAIT, EXP3_NOMINAL = "paper-efficient", "paper-nominal"
+
+
 def efficient(steps, progress, out):
-    r = _walk("efficient", "pdff", steps or 100, progress, out=out)
-    _, _, rec = wm.load_gait("efficient")
-    _, _, nom = wm.load_gait("nominal")
+    r = _walk(EXP3_GAIT, "pdff", steps or 100, progress, out=out)
+    _, _, rec = wm.load_gait(EXP3_GAIT)
+    _, _, nom = wm.load_gait(EXP3_NOMINAL)
     r.update(experiment="efficient", designed_cmt=rec["design"]["cmt"], nominal_designed_cmt=nom["design"]["cmt"],
              negative_work_fraction_spring=rec["design"]["negative_work_fraction_spring"],
              paper=dict(designed_cmt=0.0385, nominal_designed_cmt=0.0452, realised_cmt=0.14))
     if out:
         from bipedlab.robots.mabel.walking import plots as wp
 
-        m = wk.walking_model()
+        m = md.design_model(kind=rec.get("design_model", "full"))
         r.setdefault("figures", []).extend(wp.gait_figures(out, m, wm._design_from_record(rec), prefix="efficient_"))
     return r
 
