@@ -62,7 +62,7 @@ def push_value(value: str) -> tuple:
     try:
         f, k = float(force), int(step)
     except ValueError:
-        raise argparse.ArgumentTypeError(f"expected FORCE@STEP (e.g. 78@10 or -71@30), got {value!r}") from None
+        raise argparse.ArgumentTypeError(f"expected FORCE@STEP (e.g. 78@10, or --push=-71@30 for a backward push), got {value!r}") from None
     if not sep or not (math.isfinite(f) and abs(f) <= PUSH_FORCE) or not 0 <= k <= STEPS.hi - 1:
         raise argparse.ArgumentTypeError(f"expected FORCE@STEP with FORCE in [{-PUSH_FORCE:g}, {PUSH_FORCE:g}] N "
                                          f"and STEP in [0, {STEPS.hi - 1}], got {value!r}")
@@ -104,7 +104,8 @@ def _walk_arguments(p) -> None:
                                                              "(default nominal)")
     p.add_argument("--push", type=push_value, metavar="FORCE@STEP",
                    help=f"horizontal force (N, + forward, |FORCE| <= {PUSH_FORCE:g}) on the hip over the second "
-                        "half of step STEP (counted from 0, before --steps)")
+                        "half of step STEP (counted from 0, before --steps); a backward push is written with '=', "
+                        "e.g. --push=-71@30")
     p.add_argument("--impact-scale", type=IMPACT_SCALE, default=1.0, metavar="ETA",
                    help="impact scaling eta of Section VI-B (post-impact velocity / eta)")
     p.add_argument("--lean", type=LEAN, default=0.0, metavar="DEG",
@@ -129,9 +130,9 @@ def _walk_validate(args) -> None:
                          f"{steps} steps (0 to {steps - 1}); raise --steps or push earlier")
     if args.lean_steps is not None and args.lean == 0.0:
         raise UsageError("--lean-steps applies with a non-zero --lean")
-    if args.plant == "full" and (args.push is not None or args.impact_scale != 1.0):
-        raise UsageError("--plant full: --push and --impact-scale apply to the stance plant only (the full plant's "
-                         "impact is its compliant ground's)")
+    if args.plant == "full" and args.impact_scale != 1.0:
+        raise UsageError("--plant full: --impact-scale applies to the stance plant only (the full plant's impact is "
+                         "its compliant ground's)")
     if args.gait is not None and args.gait not in GAITS and not os.path.isfile(args.gait):
         raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(GAITS)}) nor a file")
     pairing = (args.controller or "pdff", args.sensing)

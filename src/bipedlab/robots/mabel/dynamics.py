@@ -61,11 +61,12 @@ def drivetrain_forces(m: Mabel, qh, qdh, u, implicit_spring_damping: bool):
     return out
 
 
-def _forces(m: Mabel, x, u, implicit: bool):
+def _forces(m: Mabel, x, u, implicit: bool, f_hip=None):
     """(H lower triangle, rhs list, contact data, q_h, qd_h, dampers) for the state x.
 
     With ``implicit``, the spring/hard-stop damping and the ground's tangential viscous
-    terms are left out of rhs and returned as dampers [(c, {coordinate: direction})]."""
+    terms are left out of rhs and returned as dampers [(c, {coordinate: direction})].
+    ``f_hip``: an external force (Fx, Fy) in N on the hip (a push), or None."""
     n = m.n
     q, qd, z = x[:n], x[n:2 * n], x[2 * n:]
     Em = jnp.asarray(np.asarray(m.E))
@@ -95,6 +96,11 @@ def _forces(m: Mabel, x, u, implicit: bool):
         for j, val in enumerate(cp.point_force(m.body, fr, idx, F)):
             if val is not None:
                 rhs[j] = rhs[j] + val
+    if f_hip is not None:
+        idx = m.body.tree.point_index("hip")
+        for j, val in enumerate(cp.point_force(m.body, fr, idx, (f_hip[0], f_hip[1]))):
+            if val is not None:
+                rhs[j] = rhs[j] + val
     return cp.mass_matrix_entries(m.body, fr), rhs, contacts, dampers
 
 
@@ -111,11 +117,11 @@ def _spring_rows(m: Mabel):
     return [{j: v for j, v in enumerate(m.E[_H[f"bsp_{s}"]]) if v != 0.0} for s in tb.SIDES]
 
 
-def _damped_acceleration(m: Mabel, x, u, h: float):
+def _damped_acceleration(m: Mabel, x, u, h: float, f_hip=None):
     """(qdd, contacts) with the stiff dampers taken implicitly over a step h:
     ``(M + h sum c a a^T) qdd = f - sum c a a^T qd``."""
     n = m.n
-    H, rhs, contacts, dampers = _forces(m, x, u, implicit=True)
+    H, rhs, contacts, dampers = _forces(m, x, u, implicit=True, f_hip=f_hip)
     qd = x[n:2 * n]
     H = [list(row) for row in H]
     for c, row in dampers:
@@ -129,11 +135,11 @@ def _damped_acceleration(m: Mabel, x, u, h: float):
     return jnp.stack(cp.solve(H, rhs)), contacts
 
 
-def step(m: Mabel, x, u, h: float) -> jax.Array:
+def step(m: Mabel, x, u, h: float, f_hip=None) -> jax.Array:
     """One semi-implicit Euler step of length h; the spring/hard-stop damping and the
     ground's tangential viscous terms are implicit: ``(M + h sum c a a^T) dv = h (f - sum c a a^T v)``."""
     n = m.n
-    qdd, contacts = _damped_acceleration(m, x, u, h)
+    qdd, contacts = _damped_acceleration(m, x, u, h, f_hip)
     qd = x[n:2 * n]
     qd_new = qd + h * qdd
     q_new = x[:n] + h * qd_new

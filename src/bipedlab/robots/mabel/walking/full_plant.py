@@ -14,6 +14,9 @@ model of the identification paper instead (:func:`bipedlab.robots.mabel.model.ho
   milliseconds, and the old stance toe is not lifted by the model;
 - Table V's viscous motor friction and the spring damping Kd_B, as on the stance model.
 
+A push (Exp. 2) acts on the hip as on the stance plant; there a toe force outside the friction
+cone makes the toe slip on the ground (LuGre), it is no fall.
+
 The amplifiers are ideal as in the stance plant (K_T = 1, no bias): the gap measured here is
 that of the mechanics and the ground, not of the current loop.
 
@@ -120,7 +123,8 @@ def plant_step(m, setup: sw.Setup, p: Plant, u, d, h, t) -> Plant:
     the nominal period, one per sample) relabels the legs; a swing toe scuffing the ground
     behind the stance toe is dragged by the ground's friction and is no step."""
     act = jnp.clip(actuator_torques(u, p.stance), -m.drive.torque_limit, m.drive.torque_limit)
-    xn = md.step(m, p.x, act, h)
+    push = jnp.where(p.step != d.step0, 0.0, 1.0) * d.force  # the push stops at a touchdown
+    xn = md.step(m, p.x, act, h, push)
     power = act * xn[13:26][jnp.asarray(MOTOR_INDEX)]
     toes = md.toe_positions(m, xn[:13])
     swing = 1 - p.stance
@@ -135,8 +139,9 @@ def plant_step(m, setup: sw.Setup, p: Plant, u, d, h, t) -> Plant:
 
 
 def exogenous(setup: sw.Setup, p: Plant, t) -> sw.Held:
-    """No push on this plant; the touchdown count at the sample's start."""
-    return sw.Held(force=jnp.zeros(2), step0=p.step)
+    """The push of Exp. 2 on the hip (as on the stance plant), held over the sample, and the
+    touchdown count at the sample's start."""
+    return sw.Held(force=sw._hip_force(setup, p), step0=p.step)
 
 
 def fell(m, setup: sw.Setup, p0: Plant, r, u, p: Plant):
@@ -158,7 +163,8 @@ def log(m, setup: sw.Setup, p0: Plant, r, u, p: Plant, c: sw.Ctrl) -> dict:
     toes = md.toe_positions(m, p0.x[:13])
     bsp = p0.x[jnp.asarray(SPRING_INDEX)]
     return dict(z=jnp.concatenate([q, qd]), u=u, y=y, yd=yd, phase=c.phase, theta=vcm.theta(q), grf=grf,
-                step=p0.step, touched=p.step != p0.step, hip=p.x[:2], force=jnp.zeros(()), distance=p.distance,
+                step=p0.step, touched=p.step != p0.step, hip=p.x[:2], force=sw._hip_force(setup, p0)[0],
+                distance=p.distance,
                 work=p.work_pos, bsp_st=bsp[p0.stance], bsp_sw=bsp[1 - p0.stance], stance=p0.stance,
                 toe_drift=toes[p0.stance, 0] - p0.toe_x)
 
