@@ -35,7 +35,6 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.robots.mabel.walking import design as md
-from bipedlab.robots.mabel.walking import loop as sw
 from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
 from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking import stance as wk
@@ -434,18 +433,11 @@ EXP4_PAPER = dict(speed_mps=0.9, cmt=0.18, torso_rms_deg=0.89, torso_peak_deg=2.
 
 def limited_walk(gait, controller, steps, limits, sensing="encoders", progress=None) -> dict:
     """A walk of ``gait`` under ``controller`` with the gait's gains saturated at ``limits``
-    (N m, actuator order), built as :func:`~bipedlab.robots.mabel.walking.study.run_walk` does
-    (the limits are data of the compiled loop); :func:`~bipedlab.robots.mabel.walking.study.metrics`
-    plus the fraction of samples in saturation per motor and the peak torques, both over the
-    samples up to the last touchdown (or the fall)."""
-    vc, gains, rec = wm.load_gait(gait)
-    gains = gains.replace(limit=jnp.asarray(limits, float))
-    m = wk.walking_model()
-    setup = wm.setup_for(vc, gains, rec["design"]["period"], sensing=sensing)
-    cb = None
-    if progress is not None:
-        cb = lambda k, n: progress(f"step {k}/{n}")  # noqa: E731
-    s, log = sw.simulate(m, controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
+    (N m, actuator order; :func:`~bipedlab.robots.mabel.walking.study.run_walk`, the limits
+    data of the compiled loop); :func:`~bipedlab.robots.mabel.walking.study.metrics` plus the
+    fraction of samples in saturation per motor and the peak torques, both over the samples up
+    to the last touchdown (or the fall)."""
+    s, log, rec = wm.run_walk(gait, controller, steps, sensing=sensing, progress=progress, torque_limits=limits)
     r = wm.metrics(s, log)
     touched = np.nonzero(log["touched"])[0]
     if r["fell"] and int(s.failed_at) >= 0:

@@ -50,7 +50,6 @@ from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import loop as sw
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.sim import loop as sl
-from bipedlab.sim import sensors
 
 SUBSTEPS = 20
 #: fraction of the nominal period after a touchdown before theta_s running backwards counts
@@ -113,8 +112,7 @@ def sensor(setup: sw.Setup, last_step, p: Plant, t):
     """Encoders of the stance coordinates, the exact rates (``sensing="ideal"``) and the
     touchdown switch."""
     q, qd = stance_state(p.x, p.stance)
-    return p.step, sw.Reading(q=sensors.encoder(q, sw.COUNTS, exact=~(setup.quantised > 0)), qd=qd,
-                              impacted=p.step != last_step, step=p.step)
+    return p.step, sw.Reading(q=sw.measure(setup, q), qd=qd, impacted=p.step != last_step, step=p.step)
 
 
 def plant_step(m, setup: sw.Setup, p: Plant, u, d, h, t) -> Plant:
@@ -141,7 +139,7 @@ def plant_step(m, setup: sw.Setup, p: Plant, u, d, h, t) -> Plant:
 def exogenous(setup: sw.Setup, p: Plant, t) -> sw.Held:
     """The push of Exp. 2 on the hip (as on the stance plant), held over the sample, and the
     touchdown count at the sample's start."""
-    return sw.Held(force=sw._hip_force(setup, p), step0=p.step)
+    return sw.Held(force=sw.hip_force(setup, p), step0=p.step)
 
 
 def fell(m, setup: sw.Setup, p0: Plant, r, u, p: Plant):
@@ -163,7 +161,7 @@ def log(m, setup: sw.Setup, p0: Plant, r, u, p: Plant, c: sw.Ctrl) -> dict:
     toes = md.toe_positions(m, p0.x[:13])
     bsp = p0.x[jnp.asarray(SPRING_INDEX)]
     return dict(z=jnp.concatenate([q, qd]), u=u, y=y, yd=yd, phase=c.phase, theta=vcm.theta(q), grf=grf,
-                step=p0.step, touched=p.step != p0.step, hip=p.x[:2], force=sw._hip_force(setup, p0)[0],
+                step=p0.step, touched=p.step != p0.step, hip=p.x[:2], force=sw.hip_force(setup, p0)[0],
                 distance=p.distance,
                 work=p.work_pos, bsp_st=bsp[p0.stance], bsp_sw=bsp[1 - p0.stance], stance=p0.stance,
                 toe_drift=toes[p0.stance, 0] - p0.toe_x)
@@ -199,11 +197,8 @@ def initial_plant(z0) -> Plant:
 
 
 def initial_state(setup: sw.Setup, z0) -> sl.LoopState:
-    p = initial_plant(z0)
-    q, _ = stance_state(p.x, p.stance)
-    qm = sensors.encoder(q, sw.COUNTS, exact=~(setup.quantised > 0))
-    c = sw.Ctrl(phase=jnp.asarray(vcm.MC), vc=setup.vc, q_prev=qm, v_est=jnp.asarray(z0)[6:], u_prev=jnp.zeros(4))
-    return sl.initial_state(p, jnp.asarray(-1), c, 0.0)
+    """The loop's state at the stance model's post-impact state z0 (time 0, no touchdown)."""
+    return sl.initial_state(initial_plant(z0), jnp.asarray(-1), sw.initial_ctrl(setup, z0), 0.0)
 
 
 def simulate(kind: str, setup: sw.Setup, z0, steps: int, chunk: int = 250, progress=None):
@@ -221,29 +216,24 @@ def steps_of(log):
     return list(zip(np.concatenate([[0], tch[:-1] + 1]), tch + 1))
 
 
-def gap_record(log, s) -> dict:
+def gap_record(log, speed_per_step) -> dict:
     """What the 13-DoF plant shows that the stance model cannot, over the completed steps: the
     peak stance and swing spring deflections (Fig. 15: the swing spring is not held at rest),
     the stance toe's largest drift from its touchdown point (slip), the fraction of samples
-    with the stance toe off the ground (rebound), and the mean speed with each leg in stance
-    (the alternation a period-two gait shows)."""
+    with the stance toe off the ground (rebound), and the mean of ``speed_per_step`` (one
+    speed per completed step, :func:`.study.metrics`) with each leg in stance (the alternation
+    a period-two gait shows)."""
     spans = steps_of(log)
     end = spans[-1][1] if spans else len(np.asarray(log["step"]))
-    side = np.asarray(log["stance"])[:end]
-    drift = np.abs(np.asarray(log["toe_drift"])[:end])
-    fn = np.asarray(log["grf"])[:end, 1]
-    lengths, durations = [], []
-    dist = np.asarray(log["distance"])
-    prev = 0.0
-    speeds = {0: [], 1: []}
-    for a, b in spans:
-        d = float(dist[b - 1]) - prev
-        prev = float(dist[b - 1])
-        speeds[int(side[a])].append(d / ((b - a) * sw.SAMPLE))
-    mean = lambda v: float(np.mean(v)) if v else None  # noqa: E731
+    if not end:
+        return dict(stance_spring_peak_deg=None, swing_spring_peak_deg=None, max_toe_drift_m=None,
+                    stance_toe_airborne_fraction=None, speed_left_stance_mps=None, speed_right_stance_mps=None)
+    side = np.asarray(log["stance"])[[a for a, _ in spans]]
+    speeds = np.asarray(speed_per_step, float)[: len(spans)]
+    mean = lambda v: float(np.mean(v)) if v.size else None  # noqa: E731
     return dict(
-        stance_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_st"])[:end]))) if end else None,
-        swing_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_sw"])[:end]))) if end else None,
-        max_toe_drift_m=float(drift.max()) if end else None,
-        stance_toe_airborne_fraction=float(np.mean(fn <= 0.0)) if end else None,
-        speed_left_stance_mps=mean(speeds[0]), speed_right_stance_mps=mean(speeds[1]))
+        stance_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_st"])[:end]))),
+        swing_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_sw"])[:end]))),
+        max_toe_drift_m=float(np.max(np.abs(np.asarray(log["toe_drift"])[:end]))),
+        stance_toe_airborne_fraction=float(np.mean(np.asarray(log["grf"])[:end, 1] <= 0.0)),
+        speed_left_stance_mps=mean(speeds[side == 0]), speed_right_stance_mps=mean(speeds[side == 1]))

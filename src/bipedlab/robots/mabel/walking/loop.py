@@ -137,11 +137,12 @@ class Held:
     step0: jax.Array
 
 
-def _measure(setup: Setup, z):
+def measure(setup: Setup, z):
+    """The encoders' reading of the stance coordinates z[:6] (exact with ``sensing="ideal"``)."""
     return sensors.encoder(z[:6], COUNTS, exact=~(setup.quantised > 0))
 
 
-def _hip_force(setup: Setup, s: Plant):
+def hip_force(setup: Setup, s: Plant):
     on = (s.step == setup.push_step) & (s.t_step >= setup.push_start * setup.period)
     return jnp.stack([jnp.where(on, setup.push_force, 0.0), 0.0])
 
@@ -201,7 +202,7 @@ def _rate_estimate(m, setup: Setup, s: Ctrl, q):
 def sensor(setup: Setup, last_step, x: Plant, t):
     """The encoders and the touchdown switch; the sensor's state is the touchdown count at the
     previous sample (-1 at the start: the first sample starts from a post-impact state)."""
-    return x.step, Reading(q=_measure(setup, x.z), qd=x.z[6:], impacted=x.step != last_step, step=x.step)
+    return x.step, Reading(q=measure(setup, x.z), qd=x.z[6:], impacted=x.step != last_step, step=x.step)
 
 
 def controller(m, kind: str, setup: Setup, s: Ctrl, r: Reading, t):
@@ -230,7 +231,7 @@ def controller(m, kind: str, setup: Setup, s: Ctrl, r: Reading, t):
 
 def exogenous(setup: Setup, x: Plant, t) -> Held:
     """The push of Exp. 2, held over the sample."""
-    return Held(force=_hip_force(setup, x), step0=x.step)
+    return Held(force=hip_force(setup, x), step0=x.step)
 
 
 def plant_step(m, setup: Setup, x: Plant, u, d: Held, h, t) -> Plant:
@@ -285,7 +286,7 @@ def contact_record(log, n_samples=None) -> dict:
 def log(m, setup: Setup, x0: Plant, r: Reading, u, x: Plant, c: Ctrl) -> dict:
     """One row per sample: state at its start, torque, outputs, sub-phase, theta, ground
     reaction, step count, touchdown flag, hip position, push force, distance, positive work."""
-    f = _hip_force(setup, x0)
+    f = hip_force(setup, x0)
     y, yd = vcm.outputs(c.vc, c.phase, x0.z[:6], x0.z[6:])
     grf = wk.ground_reaction(m, x0.z, u, f)
     hip = cp.point_position(m.body, wk.embed(m, x.z)[0], "hip")
@@ -309,11 +310,16 @@ def closed_loop(m, kind: str) -> sl.SampledLoop:
 def initial_state(setup: Setup, z0, phase=vcm.MC) -> sl.LoopState:
     """The loop's state at the post-impact state z0 (time 0, no touchdown yet)."""
     z0 = jnp.asarray(z0)
-    q = _measure(setup, z0)
     f = jnp.zeros(())
     x = Plant(z=z0, t_step=f, step=jnp.zeros((), int), work_pos=f, distance=f)
-    c = Ctrl(phase=jnp.asarray(phase), vc=setup.vc, q_prev=q, v_est=z0[6:], u_prev=jnp.zeros(4))
-    return sl.initial_state(x, jnp.asarray(-1), c, 0.0)
+    return sl.initial_state(x, jnp.asarray(-1), initial_ctrl(setup, z0, phase), 0.0)
+
+
+def initial_ctrl(setup: Setup, z0, phase=vcm.MC) -> Ctrl:
+    """The controller's state at the post-impact stance state z0: the encoders read there, the
+    rates known, no torque yet."""
+    z0 = jnp.asarray(z0)
+    return Ctrl(phase=jnp.asarray(phase), vc=setup.vc, q_prev=measure(setup, z0), v_est=z0[6:], u_prev=jnp.zeros(4))
 
 
 def make_runner(m, kind: str, chunk: int):

@@ -304,14 +304,18 @@ PLANTS = ("stance", "full")
 
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
-             progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance"):
+             progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance", torque_limits=None):
     """Simulate; returns (final loop state, logs, gait record). On the ``full`` plant there is
-    no impact map to scale (the ground's compliance makes the impact)."""
+    no impact map to scale (the ground's compliance makes the impact). ``torque_limits`` (N m,
+    actuator order): the controller's saturation instead of the gait's (data of the compiled
+    loop, so any limits share one program)."""
     if plant not in PLANTS:
         raise ValueError(f"plant must be one of {', '.join(PLANTS)}, got {plant!r}")
     if plant == "full" and eta != 1.0:
         raise ValueError("the full plant takes no impact scaling (its impact is the compliant ground's)")
     vc, gains, rec = load_gait(gait)
+    if torque_limits is not None:
+        gains = gains.replace(limit=jnp.asarray(torque_limits, float))
     m = wk.walking_model()
     setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps)
     cb = None
@@ -378,7 +382,7 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
 
         # the compliant ground cannot pull: F_N = 0 there is the stance toe off the ground,
         # which stance_toe_airborne_fraction reports
-        r.update(fp.gap_record(log, s), toe_pulled=False, toe_pulled_step=None)
+        r.update(fp.gap_record(log, r["speed_per_step"]), toe_pulled=False, toe_pulled_step=None)
         # the gait's decision vector evaluated on the HZD paper's design model (no friction, no
         # spring damping, rigid cables): the designed c_mt the paper's ~3x gap is measured from
         paper = md.make_design(md.design_model(kind="paper"), np.asarray(rec["x"], float), rec["speed"])
