@@ -1,0 +1,242 @@
+"""The hybrid step: one mode transition as named pure functions, and the stages that integrate
+it, detect the event, locate it, apply the reset and go on.
+
+A :class:`Transition` names the pieces of a hybrid system (flow + guard + reset):
+
+* ``flow(x, u) -> xdot``: the continuous dynamics under an input ``u`` held over the step (any
+  pytree, e.g. a torque and a force), in state units per second;
+* ``guard(x) -> scalar``: the event happens where it crosses zero downwards (from > 0 to <= 0),
+  e.g. a foot's height above the ground in m;
+* ``armed(x) -> bool``: whether the guard may fire, evaluated at the state a step reaches
+  without an event (e.g. the swing foot is ahead, or the step has lasted long enough);
+* ``reset(x) -> (x_plus, info)``: the state just before the event to the state just after, and
+  a pytree of what the caller wants to know about it (a step length in m, an impulse in N s);
+* ``integrator(f, x, u, h)``: one fixed step (default the core RK4 of
+  :mod:`bipedlab.sim.integrators`; any of that module's integrators fits);
+* ``input_after(u) -> u``: the input held over the rest of the step after the event (default:
+  the same input; e.g. a push that ends at a touchdown).
+
+Stages:
+
+* :func:`substep` - one step of length ``h`` (s) of a sampled plant: integrate, detect a
+  crossing, locate it inside the step by false position (Illinois, or plain regula falsi) on
+  the fraction of the step (a fixed number of iterations), apply the reset and integrate the
+  remainder of the step from the reset state. One compiled ``lax.while_loop`` holds one call
+  of the integrator, shared by the step, the locating iterations and the remainder, and one
+  call of the reset. Returns the state and
+  an :class:`Event` (``event``, ``fraction`` of ``h`` before it, the reset's ``info``).
+* :func:`flow_until_event` - flow from a state until the event and reset it, for step-to-step
+  (Poincare) maps: the crossing is located by :func:`bipedlab.sim.events.flow_to_event`
+  (secant iterations to a tolerance), or, with ``locate="linear"``, the state is linearly
+  interpolated between the two integration steps around the crossing (first order in the step;
+  kept for results recorded with it).
+
+Event-time sensitivity: the located fraction ``tau`` of a substep is re-expressed through the
+implicit function theorem, ``tau <- stop_gradient(tau) - (g - stop_gradient(g)) /
+stop_gradient(dg/dtau)``, with ``g`` the guard at the located state and ``dg/dtau`` its rate
+along the flow there. The value is the located one unchanged (the correction is zero); the
+forward-mode tangent (``jax.jvp``, ``jax.jacfwd``) is the exact derivative of the event time, so
+derivatives of the post-event state include the event's shift. ``flow_until_event`` inherits the
+same correction from ``flow_to_event``.
+
+Everything is traced (``lax.while_loop``, ``lax.cond``, ``jnp.where``): no Python branching on
+values, and a failure is a status, never an exception.
+"""
+from __future__ import annotations
+
+from typing import Any, Callable
+
+import jax
+import jax.numpy as jnp
+
+from bipedlab.pytree import pytree, static_field
+from bipedlab.sim.events import StepResult, flow_to_event, linear_crossing
+from bipedlab.sim.integrators import rk4
+from bipedlab.sim.rollout import FELL, NONFINITE, OK
+
+
+def _same_input(u):
+    return u
+
+
+@pytree
+class Transition:
+    """One mode transition of a hybrid system (see the module docstring for the signatures and
+    units). ``iterations``: bracket updates of the located fraction in :func:`substep` (one
+    more evaluation follows them); ``method``: ``"illinois"`` (false position that halves the
+    guard value kept at an end retained twice: superlinear, robust on long substeps) or
+    ``"false_position"`` (plain regula falsi: linear convergence, at the rate of the guard's
+    curvature over the substep); ``sensitivity``: whether the located event time carries its
+    implicit-function tangent (costs one evaluation of ``flow`` at the event)."""
+
+    flow: Callable = static_field()
+    guard: Callable = static_field()
+    armed: Callable = static_field()
+    reset: Callable = static_field()
+    integrator: Callable = static_field(rk4)
+    input_after: Callable = static_field(_same_input)
+    iterations: int = static_field(6)
+    method: str = static_field("illinois")
+    sensitivity: bool = static_field(True)
+
+
+@pytree
+class Event:
+    """What a substep saw: ``event`` (bool) whether the guard fired, ``fraction`` of the step
+    length h elapsed before it (1.0 without an event; multiply by h for seconds), and ``info``,
+    the reset's pytree (zeros without an event)."""
+
+    event: jax.Array
+    fraction: jax.Array
+    info: Any
+
+
+def _where(c, a, b):
+    return jax.tree_util.tree_map(lambda p, q: jnp.where(c, p, q), a, b)
+
+
+def _zeros_like_shape(tree):
+    return jax.tree_util.tree_map(lambda s: jnp.zeros(s.shape, s.dtype), tree)
+
+
+def _event_state(tr: Transition, x_tau, g_tau, tau, u, h):
+    """The located state and fraction with the implicit-function tangent of the event time.
+
+    ``x_tau`` is the state reached at the fixed (non-differentiated) fraction ``tau``, ``g_tau``
+    the guard there. Values are returned unchanged; tangents are those of the exact root."""
+    tau = jax.lax.stop_gradient(tau)
+    if not tr.sensitivity:
+        return x_tau, tau
+    rate = jax.lax.stop_gradient(h * tr.flow(x_tau, u))  # d x / d tau
+    slope = jax.lax.stop_gradient(jax.jvp(tr.guard, (x_tau,), (rate,))[1])  # d g / d tau
+    safe = jnp.isfinite(slope) & (slope != 0.0)
+    corr = -(g_tau - jax.lax.stop_gradient(g_tau)) / jnp.where(safe, slope, 1.0)
+    corr = jnp.where(safe, corr, 0.0)
+    rate = jnp.where(jnp.isfinite(rate), rate, 0.0)
+    return x_tau + rate * corr, tau + corr
+
+
+def substep(tr: Transition, x, u, h):
+    """One step of length ``h`` (s) from state ``x`` under the held input ``u``.
+
+    Without an event: ``tr.integrator(tr.flow, x, u, h)``. With one - ``guard(x) > 0``,
+    ``guard <= 0`` at the end of the step and ``armed`` there - the fraction of the step at the
+    crossing is located by ``tr.iterations`` bracket updates on [0, 1] (``tr.method``) and one final
+    evaluation (each an integrator step from ``x`` over the trial fraction), the reset is
+    applied at the located state and the rest of the step is integrated from the reset state
+    under ``tr.input_after(u)``. At most one event per substep. Returns (state, :class:`Event`).
+    """
+    x = jnp.asarray(x)
+    h = jnp.asarray(h, x.dtype)
+    u_after = tr.input_after(u)
+    g0 = tr.guard(x)
+    _, info0 = jax.eval_shape(tr.reset, x)
+    info0 = _zeros_like_shape(info0)
+    n = tr.iterations
+    one, zero = jnp.ones((), x.dtype), jnp.zeros((), x.dtype)
+
+    if tr.method not in ("illinois", "false_position"):
+        raise ValueError(f"Transition.method: unknown {tr.method!r}; choose 'illinois' or 'false_position'")
+    illinois = tr.method == "illinois"
+    sg = jax.lax.stop_gradient
+
+    # mode 0: the step; 1: locating (iteration j of n + 1); 2: the remainder; 3: done;
+    # bracket (a, b, ga, gb) on the fraction, ga > 0 >= gb; side: the end replaced last (+1 a)
+    def cond(c):
+        return c[0] < 3
+
+    def body(c):
+        mode, j, a, b, ga, gb, side, tau, x_plus, info, x_out, event = c
+        trial = sg(a - ga * (b - a) / (gb - ga))
+        start = jnp.where(mode == 2, x_plus, x)
+        dt = jnp.where(mode == 0, h, jnp.where(mode == 1, trial * h, (1.0 - tau) * h))
+        xn = tr.integrator(tr.flow, start, _where(mode == 2, u_after, u), dt)
+        gn = tr.guard(xn)
+        hit = (mode == 0) & (g0 > 0.0) & (gn <= 0.0) & tr.armed(xn)
+        locating = mode == 1
+        left = locating & (sg(gn) > 0.0)
+        right = locating & ~(sg(gn) > 0.0)
+        if illinois:  # the end kept a second time counts half
+            gb = jnp.where(left & (side > 0), 0.5 * gb, gb)
+            ga = jnp.where(right & (side < 0), 0.5 * ga, ga)
+        a = jnp.where(hit, 0.0, jnp.where(left, trial, a))
+        b = jnp.where(hit, 1.0, jnp.where(right, trial, b))
+        ga = jnp.where(hit, sg(g0), jnp.where(left, sg(gn), ga))
+        gb = jnp.where(hit | right, sg(gn), gb)
+        side = jnp.where(hit, 0, jnp.where(left, 1, jnp.where(right, -1, side)))
+        last = locating & (j == n)
+
+        def at_event(_):
+            xe, te = _event_state(tr, xn, gn, trial, u, h)
+            xp, inf = tr.reset(xe)
+            return jnp.asarray(xp, x.dtype), inf, te
+
+        x_plus, info, tau = jax.lax.cond(last, at_event, lambda _: (x_plus, info, tau), None)
+        x_out = jnp.where((mode == 0) | (mode == 2), xn, x_out)
+        mode = jnp.where(mode == 0, jnp.where(hit, 1, 3), jnp.where(locating, jnp.where(last, 2, 1), 3))
+        return mode, j + locating, a, b, ga, gb, side, tau, x_plus, info, x_out, event | hit
+
+    init = (jnp.asarray(0), jnp.asarray(0), zero, one, one, -one, jnp.asarray(0), one, x, info0, x,
+            jnp.asarray(False))
+    c = jax.lax.while_loop(cond, body, init)
+    tau, info, x_out, event = c[7], c[9], c[10], c[11]
+    return x_out, Event(event=event, fraction=jnp.where(event, tau, 1.0), info=info)
+
+
+def flow_until_event(tr: Transition, x0, u, h: float, max_time: float, integrand: Callable | None = None,
+                     fell: Callable | None = None, locate: str = "secant", tol: float = 1e-13,
+                     max_refine: int = 30):
+    """Flow ``tr.flow`` under the held input ``u`` from ``x0`` with steps of ``h`` (s) until the
+    armed guard crosses zero downwards, then apply ``tr.reset``: a step-to-step map.
+
+    ``locate="secant"``: :func:`bipedlab.sim.events.flow_to_event` (RK4, the crossing located by
+    secant iterations to ``tol`` in the guard's unit, event-time tangent included; ``integrand``
+    accumulated over the flow). ``locate="linear"``: ``tr.integrator`` steps until a step ends
+    armed with ``guard <= 0`` (or ``fell``), and the event state is the linear interpolation
+    between that step's ends at the guard's linear crossing (no ``integrand``).
+
+    ``fell(x) -> bool`` ends the flow with status FELL; so does ``max_time`` (s) without an
+    event. Returns (:class:`~bipedlab.sim.events.StepResult` at the event, the reset state,
+    the reset's info); where the status is not OK the reset state is the event state and the
+    info zeros."""
+    if locate == "secant":
+        r = flow_to_event(lambda z: tr.flow(z, u), tr.guard, tr.armed, x0, h, max_time, integrand, fell, tol,
+                          max_refine)
+    elif locate == "linear":
+        if integrand is not None:
+            raise ValueError("flow_until_event: locate='linear' accumulates no integrand")
+        r = _flow_linear(tr, x0, u, h, int(round(max_time / h)), fell)
+    else:
+        raise ValueError(f"flow_until_event: unknown locate {locate!r}; choose 'secant' or 'linear'")
+    xp, info = tr.reset(r.z)
+    ok = r.status == OK
+    info0 = _zeros_like_shape(jax.eval_shape(lambda z: tr.reset(z)[1], r.z))
+    return r, jnp.where(ok, xp, r.z), _where(ok, info, info0)
+
+
+def _flow_linear(tr: Transition, x0, u, h, max_steps: int, fell: Callable | None) -> StepResult:
+    """Integrator steps until one ends armed on the far side of the guard, or fell; the event
+    state linearly interpolated inside that step. Time = (steps - 1 + fraction) h."""
+    fell = fell or (lambda z: jnp.asarray(False))
+    x0 = jnp.asarray(x0)
+
+    def cond(c):
+        _, _, k, done = c
+        return (~done) & (k < max_steps)
+
+    def body(c):
+        x, _, k, _ = c
+        xn = tr.integrator(tr.flow, x, u, h)
+        out = (tr.armed(xn) & (tr.guard(xn) <= 0.0)) | fell(xn)
+        return xn, x, k + 1, out
+
+    x, xp, k, done = jax.lax.while_loop(cond, body, (x0, x0, 0, False))
+    frac = linear_crossing(tr.guard(xp), tr.guard(x), 0.0)
+    xe = xp + frac * (x - xp)
+    finite = jnp.all(jnp.isfinite(x))
+    status = jnp.where(~finite, NONFINITE, jnp.where(done & ~fell(x), OK, FELL))
+    return StepResult(z=xe, t=(k - 1 + frac) * h, integrals=jnp.zeros(0), steps=k, guard=tr.guard(xe),
+                      status=status)
+
+
+__all__ = ["Event", "Transition", "flow_until_event", "substep"]
