@@ -2,9 +2,10 @@
 stance model of Section II-B under a controller sampled at 1 kHz.
 
 Plant: the 6-DoF stance dynamics (rigid cables, swing spring at rest) integrated by RK4 with
-``SUBSTEPS`` steps per sample under a zero-order-held torque; touchdown is located inside a
-substep by regula falsi on the swing-toe height, the transition map (with the impact scaling
-eta) applied there and the rest of the substep integrated. An optional horizontal force on the
+``SUBSTEPS`` steps per sample under a zero-order-held torque; a substep is the core's hybrid
+step (:func:`bipedlab.sim.hybrid.substep` of the transition :func:`touchdown`): touchdown is
+located inside it by regula falsi on the swing-toe height, the transition map (with the impact
+scaling eta) applied there and the rest of the substep integrated. An optional horizontal force on the
 hip (the push of Exp. 2) acts over the second half of a chosen step.
 
 Controller: every 1 ms it reads the encoders (quantised to ``2 pi / counts``, or exact with
@@ -48,7 +49,7 @@ from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.pytree import pytree
 from bipedlab.sim import loop as sl
 from bipedlab.sim import sensors
-from bipedlab.sim.events import regula_falsi_with
+from bipedlab.sim import hybrid
 from bipedlab.sim.integrators import rk4_scan
 
 SAMPLE = 1e-3
@@ -156,25 +157,29 @@ def _toe(m, z):
     return wk.swing_toe(m, z)[1]
 
 
+def touchdown(m, setup: Setup, t_step) -> hybrid.Transition:
+    """The stance phase's end as a hybrid transition: the stance dynamics under the held
+    (torque, hip force), the swing toe's height (m) as the guard, armed once the step has lasted
+    a tenth of the nominal period (``t_step``: s since the last touchdown, at the substep's
+    start), the transition map with the impact scaling eta as the reset (info: the step length,
+    m), the push ending at the touchdown; located by six plain false-position updates, the
+    method the recorded walks were made with."""
+    return hybrid.Transition(
+        flow=lambda x, uf: wk.stance_flow(m, x, uf[0], uf[1]), guard=lambda x: _toe(m, x),
+        armed=lambda x: t_step > 0.1 * setup.period, reset=lambda x: _impact(m, setup, x), integrator=rk4_scan,
+        input_after=lambda uf: (uf[0], 0.0 * uf[1]), iterations=6, method="false_position")
+
+
+def _impact(m, setup, z):
+    tr = wk.impact(m, z, setup.eta)
+    return tr.z_plus, tr.step[0]
+
+
 def _substep(m, setup, z, u, f, t_step, h):
-    """One substep; returns (z, touched, fraction of h elapsed before the touchdown, step
-    length)."""
-    zn = _rk4(m, z, u, f, h)
-    g0, g1 = _toe(m, z), _toe(m, zn)
-    touched = (g0 > 0.0) & (g1 <= 0.0) & (t_step > 0.1 * setup.period)
-
-    def touchdown(_):
-        def at(x):
-            zx = _rk4(m, z, u, f, x * h)
-            return _toe(m, zx), zx
-
-        x, zm = regula_falsi_with(at, 0.0, 1.0, g0, g1, 6)
-        tr = wk.impact(m, zm, setup.eta)
-        zp = _rk4(m, tr.z_plus, u, 0.0 * f, (1.0 - x) * h)
-        return zp, x, tr.step[0]
-
-    zt, x, length = jax.lax.cond(touched, touchdown, lambda _: (zn, 1.0, 0.0), None)
-    return zt, touched, x, length
+    """One substep (:func:`bipedlab.sim.hybrid.substep` of :func:`touchdown`); returns (z,
+    touched, fraction of h elapsed before the touchdown, step length)."""
+    zt, ev = hybrid.substep(touchdown(m, setup, t_step), z, (u, f), h)
+    return zt, ev.event, ev.fraction, ev.info
 
 
 def _rate_estimate(m, setup: Setup, s: Ctrl, q):
