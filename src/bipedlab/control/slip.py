@@ -24,10 +24,10 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
-from bipedlab.sim.integrators import rk4
-
 from bipedlab.pytree import pytree
-from bipedlab.sim.events import linear_crossing
+from bipedlab.sim import hybrid
+from bipedlab.sim.integrators import rk4
+from bipedlab.sim.rollout import OK
 
 G = 9.81
 
@@ -71,38 +71,23 @@ def stance_flow(p: SlipParams, s):
     return jnp.concatenate([s[2:], acc])
 
 
-def _rk4(f, s, h):
-    """One step of the core RK4 on the autonomous flow ``f(s)``. (The step used to combine the
-    stages as k1 + 2 k2 + 2 k3 + k4; the core's k1 + 2 (k2 + k3) + k4 rounds differently,
-    which moves the spring-mass statistics by up to 1.7e-8 relative through the fitted swing
-    policy: float reassociation, stated in the golden tests.)"""
-    return rk4(lambda x, _: f(x), s, None, h)
+def lift_off(p: SlipParams) -> hybrid.Transition:
+    """Stance's end as a hybrid transition: the stance flow on the stationary foot, the guard
+    l0 - |r| (m, the leg's compression), armed while the leg extends (r . v > 0), no reset (the
+    flight that follows starts from the lift-off state)."""
+    return hybrid.Transition(flow=lambda s, _: stance_flow(p, s), guard=lambda s: p.l0 - jnp.linalg.norm(s[:2]),
+                             armed=lambda s: jnp.dot(s[:2], s[2:]) > 0, reset=lambda s: (s, None), integrator=rk4)
 
 
 def stance(p: SlipParams, s_td, dt: float = 1e-4, max_steps: int = 20000):
     """Integrate stance from touchdown state s_td (relative to the foot) until the leg is
-    back at rest length while extending (RK4, the crossing linearly interpolated). Returns
-    (lift-off state, stance time, ok) where ok is False when the mass hit the ground or the
-    stance did not end."""
-    f = lambda s: stance_flow(p, s)  # noqa: E731
-
-    def cond(c):
-        s, _, k, done = c
-        return (~done) & (k < max_steps)
-
-    def body(c):
-        s, _, k, _ = c
-        sn = _rk4(f, s, dt)
-        ln = jnp.linalg.norm(sn[:2])
-        out = (ln >= p.l0) & (jnp.dot(sn[:2], sn[2:]) > 0) | (sn[1] <= 0.0)
-        return sn, s, k + 1, out
-
-    s, sp, k, done = jax.lax.while_loop(cond, body, (s_td, s_td, 0, False))
-    lp, ln = jnp.linalg.norm(sp[:2]), jnp.linalg.norm(s[:2])
-    frac = linear_crossing(lp, ln, p.l0)
-    s_lo = sp + frac * (s - sp)
-    ok = done & (s[1] > 0.0)
-    return s_lo, (k - 1 + frac) * dt, ok
+    back at rest length while extending (:func:`lift_off` through the core's
+    :func:`~bipedlab.sim.hybrid.flow_until_event`: RK4 steps of ``dt`` s, the crossing linearly
+    interpolated inside the last step). Returns (lift-off state, stance time in s, ok) where ok
+    is False when the mass hit the ground or the stance did not end within ``max_steps``."""
+    r, _, _ = hybrid.flow_until_event(lift_off(p), s_td, None, dt, max_steps * dt, fell=lambda s: s[1] <= 0.0,
+                                      locate="linear")
+    return r.z, r.t, r.status == OK
 
 
 def touchdown_state(p: SlipParams, y_apex, vx, alpha):
