@@ -29,7 +29,10 @@ Stages:
   (Poincare) maps: the crossing is located by :func:`bipedlab.sim.events.flow_to_event`
   (secant iterations to a tolerance), or, with ``locate="linear"``, the state is linearly
   interpolated between the two integration steps around the crossing (first order in the step;
-  kept for results recorded with it).
+  kept for results recorded with it);
+* :func:`first_event_time` - the first time a guard given as a function of time reaches zero,
+  for motions known in closed form (a ballistic flight), where nothing is integrated and the
+  guard may jump (a foot passing over a terrain step): a grid, then bisection.
 
 Event-time sensitivity: the located fraction ``tau`` of a substep is re-expressed through the
 implicit function theorem, ``tau <- stop_gradient(tau) - (g - stop_gradient(g)) /
@@ -50,7 +53,7 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.pytree import pytree, static_field
-from bipedlab.sim.events import StepResult, flow_to_event, linear_crossing
+from bipedlab.sim.events import StepResult, bisection, first_on_grid, flow_to_event, linear_crossing
 from bipedlab.sim.integrators import rk4
 from bipedlab.sim.rollout import FELL, NONFINITE, OK
 
@@ -239,4 +242,18 @@ def _flow_linear(tr: Transition, x0, u, h, max_steps: int, fell: Callable | None
                       status=status)
 
 
-__all__ = ["Event", "Transition", "flow_until_event", "substep"]
+def first_event_time(guard_at: Callable, t_max: float, n: int, t_min: float = 0.0, iterations: int = 40):
+    """The first time in (t_min, t_max] (s) at which ``guard_at(t) <= 0``, for a motion known in
+    closed form as a function of time: the first of ``n`` grid points from 0 to ``t_max`` past
+    ``t_min`` where the guard is non-positive, then ``iterations`` halvings of the bracket
+    before it (a predicate, so a guard that jumps is located too, to (t_max / n) 2^-iterations
+    s). Returns (time, found): the bracket's far end, and whether any grid point is past the
+    guard (without one the time is meaningless)."""
+    ts = jnp.linspace(0.0, t_max, n)
+    below = (jax.vmap(guard_at)(ts) <= 0.0) & (ts > t_min)
+    _, lo, hi, found = first_on_grid(below, ts)
+    lo, hi = bisection(lambda t: guard_at(t) <= 0, lo, hi, iterations)
+    return hi, found
+
+
+__all__ = ["Event", "Transition", "first_event_time", "flow_until_event", "substep"]

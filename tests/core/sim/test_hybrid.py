@@ -207,3 +207,18 @@ def test_flow_until_event_linear_and_its_status():
     assert int(r.status) == FELL
     with pytest.raises(ValueError, match="locate"):
         hybrid.flow_until_event(tr, jnp.array([1.0, -0.7]), None, 0.1, 5.0, locate="bisect")
+
+
+def test_first_event_time_of_a_closed_form_flight():
+    """A fall from 1 m (closed form), a guard that jumps (a step in the ground), one that
+    starts below zero (ignored before t_min), and one that never fires."""
+    t_max, n = 2.0, 1000
+    tol = t_max / (n - 1) * 2.0**-40
+    t, found = hybrid.first_event_time(lambda t: 1.0 - 0.5 * G * t * t, t_max, n)
+    assert bool(found) and float(t) == pytest.approx(np.sqrt(2.0 / G), abs=2 * tol)
+    t, found = hybrid.first_event_time(lambda t: jnp.where(t < 0.3, 1.0, -1.0), t_max, n)
+    assert bool(found) and float(t) == pytest.approx(0.3, abs=2 * tol)
+    t, found = hybrid.first_event_time(lambda t: jnp.where(t < 0.01, -1.0, 1.0 - t), t_max, n, t_min=0.02)
+    assert bool(found) and float(t) == pytest.approx(1.0, abs=2 * tol)
+    _, found = hybrid.first_event_time(lambda t: 1.0 + t, t_max, n)
+    assert not bool(found)

@@ -2,7 +2,8 @@
 (the comparison of the running paper's Fig. 8).
 
 Each step: from lift-off, the ballistic flight with the leg at a*(t) (t = time since the
-flight's apex) until the foot meets the ground (found on a 2 ms grid, refined by bisection),
+flight's apex) until the foot meets the ground (the core's
+:func:`bipedlab.sim.hybrid.first_event_time`: a 2 ms grid, refined by bisection),
 then stance on the stationary foot (:func:`bipedlab.control.slip.stance`). Records, per step,
 the bounce height (apex above the ground of the stance before it, the quantity the policy
 targets) and the forward speed at apex. Vmappable over terrains.
@@ -15,7 +16,7 @@ import jax.numpy as jnp
 from bipedlab.control import slip
 from bipedlab.contact import terrain as tr
 from bipedlab.pytree import pytree
-from bipedlab.sim.events import bisection, first_on_grid
+from bipedlab.sim import hybrid
 
 
 @pytree
@@ -41,13 +42,8 @@ def _touchdown_time(p, pol, terr, s, t_max=2.0, n=1000):
         fy = s[1] + s[3] * t - 0.5 * p.g * t * t - p.l0 * jnp.sin(a)
         return fy - tr.ground(terr, fx)
 
-    ts = jnp.linspace(0.0, t_max, n)
-    g = jax.vmap(gap)(ts)
     # ignore the very start (the foot is at the ground at lift-off)
-    below = (g <= 0.0) & (ts > 0.02)
-    _, lo, hi, found = first_on_grid(below, ts)
-    lo, hi = bisection(lambda t: gap(t) <= 0, lo, hi, 40)
-    return hi, found
+    return hybrid.first_event_time(gap, t_max, n, t_min=0.02, iterations=40)
 
 
 def run(p: slip.SlipParams, gait: slip.Gait, pol: slip.SwingPolicy, terr: tr.Terrain, n_steps: int):
