@@ -28,7 +28,9 @@ def _shared_compile_cache() -> None:
         os.environ["BIPEDLAB_TEST_XLA_CACHE"] = path  # inherited by the xdist workers
         _created.append(path)
     os.environ.setdefault("BIPEDLAB_CACHE_DIR", path)
-    jax.config.update("jax_compilation_cache_dir", path)
+    from bipedlab import compilecache
+
+    compilecache.enable(path)
 
 
 _created: list = []

@@ -226,38 +226,10 @@ def _progress(msg: str) -> None:
 
 
 def _enable_compile_cache() -> None:
-    """Keep compiled programs between runs (first runs compile; later ones start fast)."""
-    import jax
+    """Keep every compiled program between runs (first runs compile; later ones load them)."""
+    from bipedlab import compilecache
 
-    path = os.environ.get("BIPEDLAB_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab", "xla")
-    try:
-        os.makedirs(path, exist_ok=True)
-        jax.config.update("jax_compilation_cache_dir", path)
-    except OSError:
-        return
-    _cache_writes_are_critical()
-
-
-def _cache_writes_are_critical() -> None:
-    """An interruption must not cut a compilation-cache entry in half (JAX writes the entry in
-    place, and a truncated one is reported on every later run): JAX's file cache writes an
-    entry inside interrupt.critical(), which the exit waits for. Leaves JAX alone if its cache
-    class is not where this JAX version keeps it."""
-    try:
-        from jax._src import lru_cache
-    except ImportError:
-        return
-    cls = getattr(lru_cache, "LRUCache", None)
-    put = getattr(cls, "put", None)
-    if put is None or getattr(put, "_bipedlab_critical", False):
-        return
-
-    def critical_put(self, key, value):
-        with interrupt.critical():
-            return put(self, key, value)
-
-    critical_put._bipedlab_critical = True
-    cls.put = critical_put
+    compilecache.enable()
 
 
 # ----------------------------------------------------------------------------- registry

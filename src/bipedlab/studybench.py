@@ -10,9 +10,13 @@ compilation cache (cold), then again with the cache the first run filled (warm).
   ``backend_compile`` durations;
 * ``run_s``: the rest of the wall time (imports, running, writing);
 * ``programs_compiled`` / ``programs_from_cache``: XLA programs compiled by XLA in the process,
-  and programs loaded from the persistent cache instead (JAX stores a program there only when
-  its compilation took at least ``jax_persistent_cache_min_compile_time_secs``, 1 s by default,
-  so small programs compile again on a warm run);
+  and programs loaded from the persistent cache instead (the studies keep every program there,
+  see :mod:`bipedlab.compilecache`, so a warm run compiles none);
+* ``programs_lowered``, ``largest_program`` and ``largest_program_eqns``: the programs lowered
+  to XLA, and the one with the most jaxpr equations (counted through every sub-jaxpr: loop
+  bodies, branches, inner jits) with its count: the size of what XLA has to compile;
+* ``slowest_programs``: the five programs that took longest to compile or load, with their
+  seconds and equations;
 * ``peak_rss_mb``: the process's peak resident memory (``getrusage``).
 
 Nothing here names a robot: the studies are whatever the registered commands declare.
@@ -32,6 +36,43 @@ _TRACE = "/jax/core/compile/jaxpr_trace_duration"
 _LOWER = "/jax/core/compile/jaxpr_to_mlir_module_duration"
 _BACKEND = "/jax/core/compile/backend_compile_duration"
 _CACHE_HIT = "/jax/compilation_cache/cache_hits"
+
+
+def count_eqns(jaxpr) -> int:
+    """Equations of a jaxpr (or closed jaxpr) counted through every sub-jaxpr it holds (loop
+    bodies and conditions, branches, inner jits, custom derivative rules)."""
+    from jax.extend import core as jcore
+
+    jaxpr = getattr(jaxpr, "jaxpr", jaxpr)
+    n = 0
+    for eqn in jaxpr.eqns:
+        n += 1
+        for v in eqn.params.values():
+            for sub in (v if isinstance(v, (tuple, list)) else (v,)):
+                if isinstance(sub, (jcore.Jaxpr, jcore.ClosedJaxpr)):
+                    n += count_eqns(sub)
+    return n
+
+
+def _watch_lowering(sizes: list) -> None:
+    """Record (name, equations) of every program JAX lowers to XLA; silently does nothing on a
+    JAX version that lowers elsewhere."""
+    try:
+        from jax._src.interpreters import pxla
+    except ImportError:
+        return
+    lower = getattr(pxla, "lower_sharding_computation", None)
+    if lower is None:
+        return
+
+    def watched(closed_jaxpr, api_name, fun_name, *args, **kwargs):
+        try:
+            sizes.append((str(fun_name), count_eqns(closed_jaxpr)))
+        except Exception:  # noqa: BLE001 - a count is informative, never worth a failed study
+            sizes.append((str(fun_name), None))
+        return lower(closed_jaxpr, api_name, fun_name, *args, **kwargs)
+
+    pxla.lower_sharding_computation = watched
 
 
 @dataclass(frozen=True)
@@ -89,12 +130,16 @@ def child(stats_path: str, argv: list[str]) -> int:
 
     durations = {_TRACE: 0.0, _LOWER: 0.0, _BACKEND: 0.0}
     counts = {_BACKEND: 0, _CACHE_HIT: 0}
+    compiles: list = []  # (name, seconds) per backend compile or cache load
+    sizes: list = []  # (name, equations) per lowered program
 
-    def on_duration(event: str, secs: float, **_):
+    def on_duration(event: str, secs: float, fun_name=None, **_):
         if event in durations:
             durations[event] += secs
         if event in counts:
             counts[event] += 1
+        if event == _BACKEND:
+            compiles.append((str(fun_name), secs))
 
     def on_event(event: str, **_):
         if event in counts:
@@ -102,6 +147,7 @@ def child(stats_path: str, argv: list[str]) -> int:
 
     monitoring.register_event_duration_secs_listener(on_duration)
     monitoring.register_event_listener(on_event)
+    _watch_lowering(sizes)
     from bipedlab import cli, outputs
 
     t_import = time.perf_counter() - t0
@@ -121,10 +167,29 @@ def child(stats_path: str, argv: list[str]) -> int:
         programs_compiled=counts[_BACKEND] - counts[_CACHE_HIT], programs_from_cache=counts[_CACHE_HIT],
         peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
         jax_version=jax.__version__,
+        **_program_figures(compiles, sizes),
     )
     with open(stats_path, "w") as f:
         outputs.dump_json(rec, f)
     return code
+
+
+def _program_figures(compiles: list, sizes: list) -> dict:
+    """The per-program figures of the record from the (name, seconds) compiles and the
+    (name, equations) lowerings, matched by name in order (JAX lowers a program, then compiles it)."""
+    counted = [n for _, n in sizes if n is not None]
+    largest = max((s for s in sizes if s[1] is not None), key=lambda s: s[1], default=(None, None))
+    pending: dict = {}
+    for name, n in sizes:
+        pending.setdefault(name, []).append(n)
+    def lowered_name(name: str) -> str:  # the compile event says jit(f) where the lowering says f
+        return name[4:-1] if name.startswith("jit(") and name.endswith(")") else name
+
+    rows = [dict(name=name, seconds=secs, eqns=(pending.get(lowered_name(name)) or [None]).pop(0))
+            for name, secs in compiles]
+    rows.sort(key=lambda r: -r["seconds"])
+    return dict(programs_lowered=len(sizes), largest_program=largest[0], largest_program_eqns=largest[1],
+                total_eqns=sum(counted), slowest_programs=rows[:5])
 
 
 def _one(argv: tuple, cache: str, timeout: float | None) -> dict:

@@ -29,10 +29,10 @@ def default_jobs() -> int:
 
 def _worker(tasks, quick: bool, use_cache: bool, messages) -> None:
     """Run papers from ``tasks`` ([paper key, [experiment names]] or None to stop)."""
-    from bipedlab import cli
+    from bipedlab import compilecache
     from bipedlab.report import registry, runner
 
-    cli._enable_compile_cache()
+    compilecache.enable()
     known = registry.papers()
     while True:
         task = tasks.get()

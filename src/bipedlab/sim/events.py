@@ -21,10 +21,13 @@ Fixed-step RK4 runs until the armed guard ``g(z)`` changes sign from positive to
 the crossing inside the last step is then located by secant iterations on the sub-step
 ``tau``, using the RK4 step from the start of that step as a 4th-order accurate local
 solution, until ``|g(rk4(z_k, tau))|`` is below ``tol`` (1e-13 by default). The same RK4 call
-serves the stepping and the refinement, which keeps the compiled loop small. The event time is
-finally re-expressed through the implicit function theorem,
+serves the stepping and the refinement, and its four stages are one ``lax.scan`` over a single
+traced flow (:func:`bipedlab.sim.integrators.rk4_scan`), so the compiled loop holds the flow
+once. The event time is finally re-expressed through the implicit function theorem,
 ``tau <- tau - g / stop_gradient(g')``, so forward-mode derivatives (``jax.jacfwd``) of the event
-state include the event-time sensitivity.
+state include the event-time sensitivity; that correction and the step to the corrected time are
+the two iterations of one more scan over the same step, so the whole program holds the flow
+three times (loop, correction, guard slope) however large it is.
 
 Everything runs inside ``lax.while_loop`` (forward-mode differentiable) and returns a status
 (``OK``; ``FELL`` when the step does not end within ``max_time`` or ``fell(z)`` holds;
@@ -38,7 +41,7 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.pytree import pytree
-from bipedlab.sim.integrators import rk4
+from bipedlab.sim.integrators import rk4_scan
 from bipedlab.sim.rollout import FELL, NONFINITE, OK
 
 
@@ -66,18 +69,19 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
     fell = fell or (lambda z: jnp.asarray(False))
     nint = jax.eval_shape(integrand, z0).shape
     max_steps = int(max_time / h) + 1
-    step = lambda z, dt: rk4(lambda x, _: f(x), z, None, dt)  # noqa: E731
+    step = lambda z, dt: rk4_scan(lambda x, _: f(x), z, None, dt)  # noqa: E731
     z0 = jnp.asarray(z0)
     zero = jnp.zeros((), z0.dtype)
 
-    # carry: k, z (start of the current step), guard at z, t, acc,
+    # carry: k, z (start of the current step), guard at z, t, acc, integrand at z,
     #        mode (0 stepping, 1 refining, 2 done), secant bracket (ta, ga, tb, gb), status
     def cond(c):
-        k, z, gz, t, acc, mode, ta, ga, tb, gb, status = c
+        k, z, gz, t, acc, iz, mode, ta, ga, tb, gb, status = c
         return (mode < 2) & (k < max_steps + max_refine)
 
     def body(c):
-        k, z, gz, t, acc, mode, ta, ga, tb, gb, status = c
+        k, z, gz, t, acc, _, mode, ta, ga, tb, gb, status = c
+        iz = integrand(z)
         refining = mode == 1
         denom = jnp.where(gb != ga, gb - ga, 1.0)
         tau = jnp.where(refining, jnp.clip(tb - gb * (tb - ta) / denom, 0.0, h), h)
@@ -86,7 +90,7 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
         bad = ~jnp.all(jnp.isfinite(zn)) | (fell(zn) & ~refining)
         # stepping: detect a crossing in [z, zn]
         hit = ~refining & armed(zn) & (g_new < 0) & (gz >= 0)
-        acc = acc + jnp.where(refining | hit, 0.0, h) * integrand(z)  # the crossing step: below
+        acc = acc + jnp.where(refining | hit, 0.0, h) * iz  # the crossing step: below
         # refining: keep the secant pair (previous iterate, new iterate)
         converged = refining & (jnp.abs(g_new) <= tol)
         new_mode = jnp.where(bad, 2, jnp.where(hit, 1, jnp.where(converged, 2, mode)))
@@ -99,22 +103,29 @@ def flow_to_event(f: Callable, guard: Callable, armed: Callable, z0, h: float, m
         tb_n = jnp.where(hit, h, jnp.where(refining, tau, tb))
         gb_n = jnp.where(hit, g_new, jnp.where(refining, g_new, gb))
         status = jnp.where(bad, jnp.where(jnp.all(jnp.isfinite(zn)), FELL, NONFINITE), status)
-        return k + 1, z_next, gz_next, t_next, acc, new_mode, ta_n, ga_n, tb_n, gb_n, status
+        return k + 1, z_next, gz_next, t_next, acc, iz, new_mode, ta_n, ga_n, tb_n, gb_n, status
 
-    init = (jnp.asarray(0), z0, guard(z0), zero, jnp.zeros(nint), jnp.asarray(0), zero, zero, zero, zero,
-            jnp.asarray(OK))
-    k, z, _, t, acc, mode, ta, ga, tb, gb, status = jax.lax.while_loop(cond, body, init)
+    init = (jnp.asarray(0), z0, guard(z0), zero, jnp.zeros(nint), jnp.zeros(nint), jnp.asarray(0), zero, zero,
+            zero, zero, jnp.asarray(OK))
+    k, z, _, t, acc, iz, mode, ta, ga, tb, gb, status = jax.lax.while_loop(cond, body, init)
     found = (mode == 2) & (status == OK)
     status = jnp.where(found, OK, jnp.where(status == OK, FELL, status))
-    # implicit-function form of the event time: exact value, exact forward-mode derivative
-    tau = jax.lax.stop_gradient(tb)
-    ze = step(z, tau)
-    slope = jax.lax.stop_gradient(jax.jvp(guard, (ze,), (f(ze),))[1])
-    tau = tau - guard(ze) / jnp.where(found, slope, 1.0)
-    ze = jnp.where(found, step(z, tau), z)
+
+    # implicit-function form of the event time: exact value, exact forward-mode derivative.
+    # Iteration 0 steps to the located time (no derivative) and corrects it by one Newton step
+    # on the guard with the slope held; iteration 1 steps to the corrected time.
+    def settle(tau, first):
+        ze = step(z, tau)
+        gz = guard(ze)
+        slope = jax.lax.stop_gradient(jax.jvp(guard, (ze,), (f(ze),))[1])
+        corrected = tau - gz / jnp.where(found, slope, 1.0)
+        return jnp.where(first, corrected, tau), (ze, gz)
+
+    tau, (zs, gs) = jax.lax.scan(settle, jax.lax.stop_gradient(tb), jnp.asarray([True, False]))
+    ze = jnp.where(found, zs[1], z)
     t = t + jnp.where(found, tau, 0.0)
-    acc = acc + jnp.where(found, tau, 0.0) * integrand(z)  # the located part of the last step
-    return StepResult(ze, t, acc, k, guard(ze), status)
+    acc = acc + jnp.where(found, tau, 0.0) * iz  # the located part of the last step
+    return StepResult(ze, t, acc, k, jnp.where(found, gs[1], guard(z)), status)
 
 
 def regula_falsi(g: Callable, a, b, ga, gb, iterations: int):
