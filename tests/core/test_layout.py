@@ -174,3 +174,87 @@ def test_one_container_idiom():
                     if isinstance(item, ast.FunctionDef) and item.name == "replace" and mod != "bipedlab.pytree":
                         hits.append(f"{mod}.{node.name}.replace")
     assert not hits, hits
+
+
+#: the low-level event locators of bipedlab.sim.events, for the core's stages to call
+LOW_LEVEL_LOCATORS = re.compile(r"regula_falsi\w*|bisection\w*|newton|first_on_grid|linear_crossing")
+#: robot modules that still integrate, locate and reset by hand (not yet on bipedlab.sim.hybrid)
+#: or loop with lax.while_loop for another reason; each entry is checked to still need it
+HYBRID_EXEMPT = {
+    "bipedlab.robots.seven_link.contact": "several contacts at once: a vector guard bisected inside its own "
+                                          "while_loop (sim.hybrid.substep takes a scalar guard)",
+    "bipedlab.robots.mabel.walking.zero_dynamics": "the zero dynamics integrated in the phase variable to the "
+                                                   "swing-toe guard, the last step by Newton",
+    "bipedlab.robots.seven_link.robustness": "a while_loop over control samples until a fall (no event "
+                                             "located), written beside sim.loop",
+}
+#: drivers moved onto the core's hybrid step
+HYBRID_PORTED = ["bipedlab.robots.mabel.walking.loop", "bipedlab.robots.atrias.slip_run"]
+
+
+def _event_loop_uses(source: str) -> list[str]:
+    """Calls (and imports) in ``source`` of the low-level locators of bipedlab.sim.events and of
+    lax.while_loop, resolved through the module's import aliases (by AST, whatever the names)."""
+    tree = ast.parse(source)
+    alias: dict[str, str] = {}  # local name -> dotted name it stands for
+    hits = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                alias[a.asname or a.name.split(".")[0]] = a.name if a.asname else a.name.split(".")[0]
+        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
+            for a in node.names:
+                full = f"{node.module}.{a.name}"
+                alias[a.asname or a.name] = full
+                if node.module == "bipedlab.sim.events" and LOW_LEVEL_LOCATORS.fullmatch(a.name):
+                    hits.append(f"imports {full}")
+
+    def dotted(f):
+        parts = []
+        while isinstance(f, ast.Attribute):
+            parts.append(f.attr)
+            f = f.value
+        if not isinstance(f, ast.Name):
+            return None
+        return ".".join([alias.get(f.id, f.id)] + parts[::-1])
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Call):
+            name = dotted(node.func)
+            if name is None:
+                continue
+            mod, _, fn = name.rpartition(".")
+            if mod == "bipedlab.sim.events" and LOW_LEVEL_LOCATORS.fullmatch(fn):
+                hits.append(f"calls {name}")
+            elif name == "jax.lax.while_loop":
+                hits.append(f"calls {name}")
+    return hits
+
+
+def test_event_loop_check_sees_aliases():
+    """The structural check below finds the calls however they are imported."""
+    src = ("import jax\nfrom jax import lax as L\nfrom jax.lax import while_loop as wl\n"
+           "from bipedlab.sim import events as ev\nimport bipedlab.sim.events\n"
+           "from bipedlab.sim.events import first_on_grid as fog\n"
+           "def f():\n    jax.lax.while_loop(c, b, x); L.while_loop(c, b, x); wl(c, b, x)\n"
+           "    ev.regula_falsi_with(g, 0, 1, 1, -1, 6); bipedlab.sim.events.bisection(p, 0, 1, 4); fog(v, t)\n"
+           "    ev.flow_to_event(f, g, a, z, 0.1, 1.0); jax.lax.scan(b, x, None, length=3)\n")
+    hits = _event_loop_uses(src)
+    assert sorted(hits) == sorted(["imports bipedlab.sim.events.first_on_grid"] + ["calls jax.lax.while_loop"] * 3 + [
+        "calls bipedlab.sim.events.regula_falsi_with", "calls bipedlab.sim.events.bisection",
+        "calls bipedlab.sim.events.first_on_grid"]), hits
+
+
+def test_robots_use_the_core_hybrid_step():
+    """Robot packages locate events through the core's stages (bipedlab.sim.hybrid, or
+    flow_to_event): no call of the low-level locators of sim.events and no event loop of their
+    own (lax.while_loop), except the modules listed in HYBRID_EXEMPT - the work still to do,
+    each of which must still need its exemption; the ported drivers use sim.hybrid."""
+    found = {mod: _event_loop_uses(path.read_text()) for mod, path in _modules() if mod.startswith("bipedlab.robots.")}
+    offenders = {m: h for m, h in found.items() if h and m not in HYBRID_EXEMPT}
+    assert not offenders, offenders
+    stale = [m for m in HYBRID_EXEMPT if not found.get(m)]
+    assert not stale, f"no longer needs its exemption (remove it from HYBRID_EXEMPT): {stale}"
+    paths = dict(_modules())
+    unported = [m for m in HYBRID_PORTED if "bipedlab.sim.hybrid" not in set(_imports(paths[m]))]
+    assert not unported, unported
