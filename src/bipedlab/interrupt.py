@@ -49,6 +49,19 @@ def _exit(signum: int, wait: bool) -> None:
     the lock is taken (then the holder finishes and the watcher ends the process)."""
     if not _lock.acquire(blocking=wait):
         return
+    _finish(LINES.get(signum, "bipedlab: interrupted"), EXIT_CODES.get(signum, 128 + int(signum)))
+
+
+def end(line: str, code: int) -> None:
+    """End the process now as an interruption does: the guard's cleanup (the staged outputs
+    removed), ``line`` on stderr, exit status ``code``, no interpreter teardown. For a failure
+    that leaves a native thread blocked (a join that JAX would later abort). Waits for a
+    :func:`critical` block in progress."""
+    _lock.acquire()
+    _finish(line, code)
+
+
+def _finish(line: str, code: int) -> None:
     try:
         cleanup = _state["cleanup"]
         if cleanup is not None:
@@ -60,8 +73,8 @@ def _exit(signum: int, wait: bool) -> None:
             _state["stderr"].flush()
     except BaseException:  # noqa: BLE001
         pass
-    _write_line(LINES.get(signum, "bipedlab: interrupted"))
-    os._exit(EXIT_CODES.get(signum, 128 + int(signum)))
+    _write_line(line)
+    os._exit(code)
 
 
 def _handler(signum, frame):

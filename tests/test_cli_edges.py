@@ -1,0 +1,119 @@
+"""Edge cases at the command line's boundary, each ending in exit status 2 and one
+``bipedlab: error:`` line (no traceback, no hang): the multi-process launch read from the
+environment and options (SLURM_NTASKS, JAX_NUM_PROCESSES, JAX_PROCESS_ID, HOST:PORT, a
+coordinator nobody answers), a gait file of another robot, log folders holding what is not a
+regular file, a model file MuJoCo's compiler rejects, and what an identification from a few
+logs could not determine."""
+from __future__ import annotations
+
+import importlib.resources
+import json
+import os
+import socket
+import subprocess
+import sys
+import time
+
+import numpy as np
+import pytest
+from helpers import expect_usage_error
+
+from bipedlab import cli
+
+FIVE_LINK_GAIT = str(importlib.resources.files("bipedlab.robots.five_link") / "data" / "five_link_0.8.json")
+MABEL_GAIT = str(importlib.resources.files("bipedlab.robots.mabel") / "data" / "mabel_nominal.json")
+RABBIT_GAIT = str(importlib.resources.files("bipedlab.robots.imported") / "data" / "rabbit_0.8.json")
+RABBIT = str(importlib.resources.files("bipedlab.robots.imported") / "data" / "rabbit.xml")
+LAUNCH_ENV = ("SLURM_NTASKS", "SLURM_PROCID", "SLURM_LOCALID", "SLURM_JOB_ID", "SLURM_STEP_NODELIST",
+              "JAX_COORDINATOR_ADDRESS", "JAX_NUM_PROCESSES", "JAX_PROCESS_ID", "JAX_LOCAL_DEVICE_IDS")
+ROBUSTNESS = ["robustness", "five-link", "--trials", "1", "--steps", "1", "--devices", "1"]
+
+
+@pytest.fixture
+def clean_env(monkeypatch):
+    for k in LAUNCH_ENV:
+        monkeypatch.delenv(k, raising=False)
+    return monkeypatch
+
+
+def _one_error_line(err: str) -> str:
+    lines = [ln for ln in err.splitlines() if not ln.startswith("[bipedlab]")]
+    assert len(lines) == 1 and lines[0].startswith("bipedlab: error: "), err[-3000:]
+    assert "Traceback" not in err, err[-3000:]
+    return lines[0]
+
+
+def _console(argv, timeout, env=None, cwd=None):
+    t0 = time.monotonic()
+    r = subprocess.run([sys.executable, "-m", "bipedlab.cli", *argv], capture_output=True, text=True, timeout=timeout,
+                       env=dict(os.environ, JAX_PLATFORMS="cpu", **(env or {})), cwd=cwd)
+    return r, time.monotonic() - t0
+
+
+def _free_port() -> int:
+    with socket.socket() as s:
+        s.bind(("127.0.0.1", 0))
+        return s.getsockname()[1]
+
+
+# ----------------------------------------------------------------------------- 1. launch variables
+@pytest.mark.parametrize("env,name", [
+    ({"SLURM_NTASKS": "two"}, "SLURM_NTASKS"), ({"SLURM_NTASKS": "0"}, "SLURM_NTASKS"),
+    ({"SLURM_NTASKS": "-3"}, "SLURM_NTASKS"), ({"SLURM_NTASKS": "1.5"}, "SLURM_NTASKS"),
+    ({"SLURM_NTASKS": "\u0663"}, "SLURM_NTASKS"), ({"JAX_NUM_PROCESSES": "two"}, "JAX_NUM_PROCESSES"),
+    ({"JAX_NUM_PROCESSES": "0"}, "JAX_NUM_PROCESSES"), ({"JAX_PROCESS_ID": "x"}, "JAX_PROCESS_ID"),
+    ({"JAX_PROCESS_ID": "-1"}, "JAX_PROCESS_ID"), ({"SLURM_PROCID": "first"}, "SLURM_PROCID"),
+    ({"JAX_COORDINATOR_ADDRESS": "notahost"}, "JAX_COORDINATOR_ADDRESS"),
+    ({"JAX_NUM_PROCESSES": "2", "JAX_PROCESS_ID": "0", "JAX_COORDINATOR_ADDRESS": "h:1",
+      "JAX_LOCAL_DEVICE_IDS": "a,b"}, "JAX_LOCAL_DEVICE_IDS"),
+], ids=lambda v: ",".join(f"{k}={x}" for k, x in v.items()) if isinstance(v, dict) else "")
+def test_a_bad_launch_variable_is_one_line_naming_it(env, name, clean_env, capsys):
+    for k, v in env.items():
+        clean_env.setenv(k, v)
+    expect_usage_error(ROBUSTNESS, capsys, needle=f"${name}")
+
+
+def test_slurm_without_its_job_variables_is_refused(clean_env, capsys):
+    clean_env.setenv("SLURM_NTASKS", "2")
+    clean_env.setenv("SLURM_JOB_ID", "7")
+    line = expect_usage_error(ROBUSTNESS, capsys, needle="$SLURM_NTASKS")
+    assert "SLURM_STEP_NODELIST" in line
+
+
+def test_valid_launch_variables_are_read(clean_env):
+    clean_env.setenv("JAX_NUM_PROCESSES", " 2 ")
+    clean_env.setenv("JAX_PROCESS_ID", "1")
+    clean_env.setenv("JAX_COORDINATOR_ADDRESS", "[::1]:1234")
+    _, args = cli.parse(ROBUSTNESS)
+    assert (args.num_processes, args.process_id, args.coordinator) == (2, 1, "[::1]:1234")
+
+
+# ----------------------------------------------------------------------------- 2. HOST:PORT
+@pytest.mark.parametrize("value", ["notahost", "host:", ":1234", "host:0", "host:65536", "host:12a", "a b:12",
+                                   "host:+80", "[::1", "::1:80"])
+def test_the_coordinator_is_host_colon_port(value, clean_env, capsys):
+    line = expect_usage_error(ROBUSTNESS + ["--num-processes", "2", "--process-id", "0", f"--coordinator={value}"],
+                              capsys, needle="--coordinator")
+    assert "HOST:PORT" in line and "[1, 65535]" in line
+
+
+# ----------------------------------------------------------------------------- 3. nobody answers
+def test_init_timeout_is_documented():
+    helptext = cli.command_parsers(cli.build_parser())["robustness five-link"].format_help()
+    assert "--init-timeout" in helptext and "default 60" in helptext
+
+
+@pytest.mark.parametrize("pid", [0, 1])
+def test_a_coordinator_nobody_answers_ends_within_the_timeout(pid, tmp_path):
+    """Process 0 listens and waits for the others; another process waits for the coordinator:
+    either ends after --init-timeout with one line, and leaves no output behind."""
+    port = _free_port()
+    out = tmp_path / "res"
+    r, dt = _console(ROBUSTNESS + ["--num-processes", "2", "--process-id", str(pid), "--coordinator",
+                                   f"127.0.0.1:{port}", "--init-timeout", "2", "--out", str(out)], timeout=120,
+                     cwd=tmp_path)
+    assert r.returncode == 2 and r.stdout == "", r.stderr[-3000:]
+    line = _one_error_line(r.stderr)
+    assert f"127.0.0.1:{port}" in line and "2 s" in line, line
+    assert dt < 60
+    assert list(tmp_path.iterdir()) == []
