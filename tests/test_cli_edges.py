@@ -117,3 +117,18 @@ def test_a_coordinator_nobody_answers_ends_within_the_timeout(pid, tmp_path):
     assert f"127.0.0.1:{port}" in line and "2 s" in line, line
     assert dt < 60
     assert list(tmp_path.iterdir()) == []
+
+
+# ----------------------------------------------------------------------------- 4. another robot's gait
+@pytest.mark.parametrize("argv,robots", [
+    (["robustness", "mabel", "--gait", FIVE_LINK_GAIT, "--trials", "1", "--devices", "1"], ("five-link", "mabel")),
+    (["walk", "mabel", "--gait", FIVE_LINK_GAIT, "--steps", "1"], ("five-link", "mabel")),
+    (["walk", "five-link", "--gait", MABEL_GAIT, "--steps", "1"], ("mabel", "five-link")),
+    (["walk", "five-link", "--gait", RABBIT_GAIT, "--steps", "1"], ("model", "five-link")),
+    (["walk", "model", RABBIT, "--gait", FIVE_LINK_GAIT, "--steps", "1"], ("five-link", "model")),
+    (["robustness", "model", RABBIT, "--gait", MABEL_GAIT, "--trials", "1", "--devices", "1"], ("mabel", "model")),
+], ids=lambda v: " ".join(v[:2]) if isinstance(v, list) else None)
+def test_a_gait_of_another_robot_names_both(argv, robots, clean_env, capsys):
+    line = expect_usage_error(argv, capsys, needle="robot")
+    got, want = robots
+    assert f"'{got}'" in line and f"'{want}'" in line, line

@@ -38,12 +38,16 @@ def envelope(robot: str, kind: str, payload: dict) -> dict:
     return dict(format=FORMAT, robot=robot, kind=kind, payload=payload)
 
 
-def open_payload(d, source: str, kind: str, legacy: tuple = ()) -> tuple[dict, str]:
+def open_payload(d, source: str, kind: str, legacy: tuple = (), robot: str | None = None) -> tuple[dict, str]:
     """(the payload of a gait file of ``kind`` with ``robot`` and ``format`` added, the prefix
     naming its fields in messages: ``"payload."``); for a version-1 file whose format is one
-    of ``legacy``, (the file itself, ""). ValueError naming the source and the field otherwise."""
+    of ``legacy``, (the file itself, ""). With ``robot``, a file that says it is another
+    robot's is refused first, naming both (:func:`bipedlab.gait.schema.expect_robot`).
+    ValueError naming the source and the field otherwise."""
     if not isinstance(d, dict):
         schema.fail(source, "", f"not a bipedlab gait file (the top level is {schema.describe(d)}, not an object)")
+    if robot is not None:
+        schema.expect_robot(d, source, robot)
     fmt = d.get("format")
     if fmt in legacy and isinstance(fmt, str):
         robot = schema.text(d, "robot", source, required=False)
@@ -59,11 +63,11 @@ def open_payload(d, source: str, kind: str, legacy: tuple = ()) -> tuple[dict, s
     return dict(payload, robot=robot, format=FORMAT), "payload."
 
 
-def open_envelope(d, source: str, kind: str, legacy: tuple = ()) -> dict:
+def open_envelope(d, source: str, kind: str, legacy: tuple = (), robot: str | None = None) -> dict:
     """The payload of a gait file of ``kind`` (with ``robot`` and ``format`` added), or, for a
     version-1 file whose format is one of ``legacy``, the file itself. ValueError naming the
-    source and the field otherwise."""
-    return open_payload(d, source, kind, legacy)[0]
+    source and the field otherwise (and the robots, for another ``robot``'s gait)."""
+    return open_payload(d, source, kind, legacy, robot)[0]
 
 
 def to_dict(robot: str, vc: VirtualConstraints, z_minus, design: dict) -> dict:
@@ -82,13 +86,13 @@ def save(path, robot: str, vc: VirtualConstraints, z_minus, design: dict) -> Non
 MAX_COEFFICIENTS = 21
 
 
-def from_dict(d: dict, source: str = "gait", sizes: tuple | None = None
+def from_dict(d: dict, source: str = "gait", sizes: tuple | None = None, robot: str | None = None
               ) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
     """(virtual constraints, pre-impact fixed point, the whole record). Every field is
     checked (type, shape, finiteness, the bounds of :mod:`bipedlab.gait.schema`); with
-    ``sizes = (n, m)`` the gait must have m outputs on n stance coordinates. ValueError
-    naming the source and the field."""
-    d, pre = open_payload(d, source, HZD, legacy=(HZD_V1,))
+    ``sizes = (n, m)`` the gait must have m outputs on n stance coordinates; with ``robot``,
+    it must not be another robot's. ValueError naming the source and the field."""
+    d, pre = open_payload(d, source, HZD, legacy=(HZD_V1,), robot=robot)
     n, m = sizes if sizes is not None else (None, None)
     H0 = schema.array(d, "H0", source, pre, (m, n), schema.COEFFICIENT, "")
     m, n = H0.shape
@@ -130,8 +134,8 @@ def parse(text: str, source: str):
     return schema.parse(text, source)
 
 
-def load(path, sizes: tuple | None = None) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
-    return from_dict(read_json(path), str(path), sizes)
+def load(path, sizes: tuple | None = None, robot: str | None = None) -> tuple[VirtualConstraints, jnp.ndarray, dict]:
+    return from_dict(read_json(path), str(path), sizes, robot)
 
 
 def shipped_text(package: str, name: str) -> tuple[str, str]:
@@ -140,7 +144,7 @@ def shipped_text(package: str, name: str) -> tuple[str, str]:
             f"{package.replace('.', '/')}/data/{name}.json")
 
 
-def shipped(package: str, name: str, sizes: tuple | None = None):
+def shipped(package: str, name: str, sizes: tuple | None = None, robot: str | None = None):
     """A gait shipped with a robot package, ``data/NAME.json`` inside ``package``."""
     text, label = shipped_text(package, name)
-    return from_dict(schema.parse(text, label), label, sizes)
+    return from_dict(schema.parse(text, label), label, sizes, robot)

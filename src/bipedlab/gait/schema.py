@@ -4,7 +4,8 @@ Every problem raises ValueError with one line ``"<file>: <field>: <problem>"``, 
 written as a dotted path (``payload.feedforward.beta``). :func:`read_json` reads a file
 (unreadable, a directory, larger than :data:`MAX_BYTES`, not UTF-8, nested deeper than
 :data:`MAX_DEPTH`, not JSON: each named); :func:`section`, :func:`array`, :func:`number`,
-:func:`text` and :func:`optional_number` check one field of a JSON object.
+:func:`text` and :func:`optional_number` check one field of a JSON object; :func:`expect_robot`
+refuses the gait of another robot, naming both.
 
 Numbers must be JSON numbers (not strings, not true/false), finite, and within a bound
 chosen from what a planar biped can do, so that a finite but absurd value is rejected here
@@ -166,6 +167,15 @@ def get(d: dict, key: str, source: str, field: str, required: bool = True):
     if required:
         fail(source, field, "missing")
     return _MISSING
+
+
+def expect_robot(d, source: str, robot: str) -> None:
+    """ValueError naming both robots when a gait file's JSON value says it is another robot's
+    (its top-level ``robot`` a different string). A file that names no robot, or not as a
+    string, passes: its envelope's own checks say what is wrong with it."""
+    got = d.get("robot") if isinstance(d, dict) else None
+    if isinstance(got, str) and got != robot:
+        fail(source, "robot", f"a gait of the robot {got!r}, not of {robot!r} (the robot this command drives)")
 
 
 def section(d: dict, key: str, source: str, prefix: str = "", required: bool = True) -> dict | None:

@@ -53,7 +53,7 @@ def test_cli_refuses_a_bad_gait_before_compiling(tmp_path, capsys, no_walk, case
         needle = CASES[case][1]
     elif case == "MABEL gait":
         path.write_text(gaitfile.shipped_text("bipedlab.robots.mabel", "mabel_nominal")[0])
-        needle = "kind: a 'mabel-compliant-hzd' gait; expected a 'hzd' payload"
+        needle = "robot: a gait of the robot 'mabel', not of 'five-link'"
     elif case == "not utf-8":
         path.write_bytes(b'{"format": "bipedlab-gait/2", "robot": "five-link\xff"}')
         needle = "not UTF-8 text (byte 0xff"

@@ -67,8 +67,8 @@ def load_gait(path=None):
     runs; ValueError naming the file and the field if it cannot drive the five-link biped."""
     H0, _ = five_link.hzd_outputs()
     sizes = (H0.shape[1], H0.shape[0])
-    vc, z, rec = (gaitfile.load(path, sizes) if path
-                  else gaitfile.shipped("bipedlab.robots.five_link", SHIPPED, sizes))
+    vc, z, rec = (gaitfile.load(path, sizes, ROBOT) if path
+                  else gaitfile.shipped("bipedlab.robots.five_link", SHIPPED, sizes, ROBOT))
     if rec.get("robot") != ROBOT:
         raise ValueError(f"{path}: robot: a gait for {rec.get('robot')!r}, not {ROBOT!r}")
     return vc, z, rec

@@ -10,7 +10,7 @@ from importlib import resources
 
 import numpy as np
 
-from bipedlab.gait import gaitfile
+from bipedlab.gait import gaitfile, schema
 from bipedlab.gait import study as hzd_study
 from bipedlab.robots.imported import robot
 
@@ -49,6 +49,7 @@ def load_gait(path: str, gait: str, plane: str = "xz"):
     """(setup, virtual constraints, fixed point, gait record) of a gait file designed for the
     robot in ``path``; ValueError naming the file and the field otherwise."""
     rec = gaitfile.read_json(gait)
+    schema.expect_robot(rec, gait, robot.ROBOT)
     design = (rec.get("payload") or {}).get("design") if isinstance(rec, dict) else None
     if not isinstance(design, dict) or not isinstance(design.get("stance"), str) \
             or not isinstance(design.get("swing"), str):

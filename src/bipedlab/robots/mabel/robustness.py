@@ -170,6 +170,13 @@ def _walk_check(args) -> None:
 
 
 def _walk_build(args, progress):
+    from bipedlab.cli import UsageError
+    from bipedlab.robots.mabel.walking import study as ws
+
+    try:  # every field of the gait, before anything compiles
+        ws.load_gait(args.gait)
+    except ValueError as e:
+        raise UsageError(str(e)) from None
     progress("MABEL's walking loop compiles for several minutes")
     return walking_study(args.steps, args.controller, args.gait, args.max_force, args.perturb, args.noise,
                          args.sensing, args.bins)

@@ -73,7 +73,7 @@ def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: s
 def from_record(d: dict, source: str):
     """(constraints, gains, record), every field checked first (:mod:`.gait_schema`);
     ValueError naming the source and the field."""
-    d, pre = gaitfile.open_payload(d, source, KIND, legacy=(FORMAT_V1,))
+    d, pre = gaitfile.open_payload(d, source, KIND, legacy=(FORMAT_V1,), robot="mabel")
     gait_schema.check(d, source, pre)
     vc = _vc_from(d["constraints"])
     ff = d["feedforward"]
