@@ -47,3 +47,34 @@ def expect_usage_error(argv, capsys, needle=None) -> str:
     if needle is not None:
         assert needle in lines[0], lines[0]
     return lines[0]
+
+
+_COMPILE_EVENTS = {"/jax/core/compile/jaxpr_trace_duration": "traced",
+                   "/jax/core/compile/jaxpr_to_mlir_module_duration": "lowered",
+                   "/jax/core/compile/backend_compile_duration": "compiled"}
+_compile_counts = {v: 0 for v in _COMPILE_EVENTS.values()}
+_listening: list = []
+
+
+def compile_counts() -> dict:
+    """Running totals, in this process, of the functions JAX traced, the programs it lowered to
+    XLA and the programs XLA compiled (or loaded from the persistent cache): take the
+    difference around a call to see whether the call built a new program."""
+    if not _listening:
+        from jax import monitoring
+
+        def on_duration(event, secs, **_):
+            kind = _COMPILE_EVENTS.get(event)
+            if kind:
+                _compile_counts[kind] += 1
+
+        monitoring.register_event_duration_secs_listener(on_duration)
+        _listening.append(True)
+    return dict(_compile_counts)
+
+
+def new_programs(fn, *args, **kwargs):
+    """(fn's result, the number of programs lowered to XLA while it ran)."""
+    before = compile_counts()["lowered"]
+    out = fn(*args, **kwargs)
+    return out, compile_counts()["lowered"] - before

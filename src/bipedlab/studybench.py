@@ -258,7 +258,8 @@ def _cpu_name() -> str:
 
 def summary(r: dict) -> str:
     lines = [f"first-run benchmark of the studies on {r['cpu']} ({r['cores']} cores), JAX {r['jax_version']}",
-             f"{'study':<44} {'':>5} {'compile s':>9} {'run s':>7} {'programs':>8} {'cached':>6} {'peak MB':>8}"]
+             f"{'study':<44} {'':>5} {'compile s':>9} {'run s':>7} {'programs':>8} {'cached':>6} {'peak MB':>8} "
+             f"{'largest eqns':>12}"]
     for row in r["studies"]:
         for kind in ("cold", "warm"):
             c = row.get(kind)
@@ -269,7 +270,7 @@ def summary(r: dict) -> str:
                 lines.append(f"{name:<44} {kind:>5} failed: {c.get('error', '')}")
                 continue
             lines.append(f"{name:<44} {kind:>5} {c['compile_s']:9.1f} {c['run_s']:7.1f} {c['programs_compiled']:8d} "
-                         f"{c['programs_from_cache']:6d} {c['peak_rss_mb']:8.0f}")
+                         f"{c['programs_from_cache']:6d} {c['peak_rss_mb']:8.0f} {c.get('largest_program_eqns') or 0:12d}")
     lines.append(f"total {r['wall_s']:.0f} s")
     return "\n".join(lines)
 

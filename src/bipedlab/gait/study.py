@@ -63,7 +63,7 @@ def poincare(study: HZDStudy, vc, z_minus, controller: str) -> dict:
     """Eigenvalues of the full closed-loop Poincaré map (autodiff) and of the restricted map."""
     st = study.stance
     ctrl = study.controllers[controller]
-    J = np.asarray(jax.jit(lambda z: gw.poincare_jacobian(vc, st, ctrl, z))(z_minus))
+    J = np.asarray(gw.poincare_program(vc, st, ctrl, jnp.asarray(z_minus)))
     ev = np.linalg.eigvals(J)
     ev = ev[np.argsort(-np.abs(ev))]
     rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z_minus[st.n:]), nodes=study.nodes)
@@ -122,7 +122,7 @@ def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: floa
     z0 = np.asarray(z_star) * (1.0 + perturb * rng.standard_normal(z_star.shape))
     say(f"walking {steps} steps ({controller}), compiling first")
     t0 = time.perf_counter()
-    w = jax.jit(lambda z: gw.walk(vc, st, ctrl, z, steps))(jnp.asarray(z0))
+    w = gw.walk_program(vc, st, ctrl, jnp.asarray(z0), steps)
     w = jax.tree_util.tree_map(np.asarray, w)
     wall = time.perf_counter() - t0
     ok = w.status == 0

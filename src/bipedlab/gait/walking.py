@@ -12,6 +12,7 @@ eigenvalue).
 from __future__ import annotations
 
 import dataclasses
+import functools
 
 import jax
 import jax.numpy as jnp
@@ -143,6 +144,12 @@ def poincare_jacobian(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3
     return jax.jacfwd(lambda z: step(vc, st, ctrl, z, h).z_minus)(z_minus)
 
 
+#: compiled forms with the gait (virtual constraints), the model and the state traced: one
+#: program per controller, step count and time step serves every gait of a robot
+walk_program = jax.jit(walk, static_argnames=("ctrl", "steps", "h", "max_time", "min_height"))
+poincare_program = jax.jit(poincare_jacobian, static_argnames=("ctrl", "h"))
+
+
 def poincare_jacobian_fd(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3,
                          delta: float = 1e-6) -> np.ndarray:
     """Central finite differences of the same map (the check on the autodiff Jacobian)."""
@@ -155,10 +162,17 @@ def restricted_map(vc, st: Stance, theta_dot_minus, nodes: int = 60):
 
     q, qd = hzd.lift(vc, vc.theta_minus, theta_dot_minus)
     zp, _, _, _ = impact(st, jnp.concatenate([q, qd]))
-    prob = GaitProblem(st, np.asarray(vc.H0), np.asarray(vc.c), order=vc.order, nodes=nodes)
+    prob = GaitProblem(st, vc.H0, vc.c, order=vc.order, nodes=nodes)  # H0, c may be traced
     wf = integrate_zero_dynamics(prob, vc, vc.c @ zp[st.n:])[0]
     return jnp.sqrt(jnp.maximum(2.0 * wf[0], 0.0))
 
 
+@functools.partial(jax.jit, static_argnames=("nodes",))
+def _restricted_slope(vc, st: Stance, theta_dot_minus, nodes: int):
+    return jax.jacfwd(lambda t: restricted_map(vc, st, t, nodes))(theta_dot_minus)
+
+
 def restricted_eigenvalue(vc, st: Stance, theta_dot_minus, nodes: int = 60) -> float:
-    return float(jax.jacfwd(lambda t: restricted_map(vc, st, t, nodes))(jnp.asarray(theta_dot_minus)))
+    """d rho / d thetadot- at thetadot-: one compiled program per model and node count, the
+    gait a traced argument."""
+    return float(_restricted_slope(vc, st, jnp.asarray(theta_dot_minus, float), nodes))
