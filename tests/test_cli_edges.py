@@ -132,3 +132,79 @@ def test_a_gait_of_another_robot_names_both(argv, robots, clean_env, capsys):
     line = expect_usage_error(argv, capsys, needle="robot")
     got, want = robots
     assert f"'{got}'" in line and f"'{want}'" in line, line
+
+
+# ----------------------------------------------------------------------------- 5. not regular files
+def test_a_fifo_among_the_logs_is_refused_without_opening_it(tmp_path):
+    data = tmp_path / "logs"
+    data.mkdir()
+    os.mkfifo(data / "a.csv")
+    r, dt = _console(["identify", "mabel", "--data", str(data)], timeout=60)
+    assert r.returncode == 2 and r.stdout == ""
+    line = _one_error_line(r.stderr)
+    assert "a.csv" in line and "FIFO" in line, line
+
+
+@pytest.mark.parametrize("kind", ["directory", "symlink loop", "/dev/null", "/dev/zero", "dangling symlink"])
+def test_what_is_not_a_regular_file_among_the_logs_is_refused(kind, tmp_path, capsys):
+    data = tmp_path / "logs"
+    data.mkdir()
+    target = data / "a.csv"
+    if kind == "directory":
+        target.mkdir()
+    elif kind == "symlink loop":
+        os.symlink(data / "b.csv", target)
+        os.symlink(target, data / "b.csv")
+    elif kind == "dangling symlink":
+        os.symlink(data / "nowhere", target)
+    else:
+        os.symlink(kind, target)
+    args = _parse_only(["identify", "mabel", "--data", str(data)], capsys)
+    assert args is None
+    line = capsys.readouterr().err.strip()
+    assert line.startswith("bipedlab: error: ") and "\n" not in line and "a.csv" in line, line
+
+
+def _parse_only(argv, capsys):
+    try:
+        return cli.parse(argv)[1]
+    except SystemExit as e:
+        assert e.code == 2
+        return None
+
+
+def _fifo(path):
+    """A FIFO at path; a writer opens and closes it after 5 s, so that a reader that opens it
+    anyway ends (reading nothing) instead of waiting for ever."""
+    import threading
+
+    os.mkfifo(path)
+
+    def release():
+        time.sleep(5.0)
+        try:
+            fd = os.open(path, os.O_WRONLY | os.O_NONBLOCK)
+            os.close(fd)
+        except OSError:  # nobody is reading: nothing to release
+            pass
+
+    threading.Thread(target=release, daemon=True).start()
+    return path
+
+
+def test_the_log_reader_refuses_a_fifo_without_opening_it(tmp_path):
+    from bipedlab.robots.mabel.sysid.logs import LogError, read_log
+
+    t0 = time.monotonic()
+    with pytest.raises(LogError, match=r"a\.csv: .*FIFO"):
+        read_log(_fifo(tmp_path / "a.csv"))
+    assert time.monotonic() - t0 < 2.0
+
+
+def test_the_gait_reader_refuses_a_fifo_without_opening_it(tmp_path):
+    from bipedlab.gait import schema
+
+    t0 = time.monotonic()
+    with pytest.raises(ValueError, match=r"g\.json: .*FIFO"):
+        schema.read_json(_fifo(tmp_path / "g.json"))
+    assert time.monotonic() - t0 < 2.0

@@ -2,7 +2,7 @@
 
 Every problem raises ValueError with one line ``"<file>: <field>: <problem>"``, the field
 written as a dotted path (``payload.feedforward.beta``). :func:`read_json` reads a file
-(unreadable, a directory, larger than :data:`MAX_BYTES`, not UTF-8, nested deeper than
+(unreadable, a directory or another file that is not a regular one, left unopened, larger than :data:`MAX_BYTES`, not UTF-8, nested deeper than
 :data:`MAX_DEPTH`, not JSON: each named); :func:`section`, :func:`array`, :func:`number`,
 :func:`text` and :func:`optional_number` check one field of a JSON object; :func:`expect_robot`
 refuses the gait of another robot, naming both.
@@ -29,6 +29,8 @@ import re
 from pathlib import Path
 
 import numpy as np
+
+from bipedlab.inputs import special_kind
 
 #: largest gait file read (bytes); gait files are a few kB
 MAX_BYTES = 16 * 2**20
@@ -74,9 +76,10 @@ def read_json(path, unreadable: str = "cannot read"):
     p = Path(path)
     if "\0" in str(path):
         fail(str(path).replace("\0", "\\0"), "", f"{unreadable} (a NUL character in the name)")
+    kind = special_kind(p)  # a FIFO or a device would block or never end: refused unopened
+    if kind is not None:
+        fail(str(path), "", f"{unreadable} ({kind}, not a file)")
     try:
-        if p.is_dir():
-            fail(str(path), "", f"{unreadable} (a directory, not a file)")
         size = p.stat().st_size
         if size > MAX_BYTES:
             fail(str(path), "", f"{unreadable} ({size} bytes; a gait file has at most {MAX_BYTES})")

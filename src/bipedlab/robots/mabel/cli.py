@@ -242,6 +242,21 @@ def _identify_validate(args) -> None:
         raise UsageError("--seed, --noise and --noise-study apply to --synthetic only")
     if args.data is not None and not os.path.isdir(args.data):
         raise UsageError(f"--data: {args.data!r} is not a folder")
+    if args.data is not None:
+        _check_log_files(args.data)
+
+
+def _check_log_files(folder: str) -> None:
+    """Every ``*.csv`` of the folder is a regular file (a FIFO or a device would block the
+    reader or never end), found without opening any."""
+    from pathlib import Path
+
+    from bipedlab.inputs import special_kind
+
+    for path in sorted(Path(folder).glob("*.csv")):
+        kind = special_kind(path)
+        if kind is not None:
+            raise UsageError(f"--data: {path}: cannot be read ({kind}, not a regular file)")
 
 
 def _identify(args, progress):

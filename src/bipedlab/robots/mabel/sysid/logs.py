@@ -69,6 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
+from bipedlab.inputs import special_kind
 from bipedlab.robots.mabel import tables as tb
 
 KINDS = ("bias", "transmission", "leg", "spring", "balance", "hopping")
@@ -257,6 +258,9 @@ def read_log(path) -> Experiment:
     from bipedlab.robots.mabel.sysid import preconditions
 
     path = Path(path)
+    kind = special_kind(path)  # a FIFO or a device would block or never end: refused unopened
+    if kind is not None:
+        _fail(path, f"cannot be read ({kind}, not a regular file)")
     try:
         text = path.read_text(encoding="utf-8")
     except UnicodeDecodeError as e:
