@@ -208,3 +208,22 @@ def test_the_gait_reader_refuses_a_fifo_without_opening_it(tmp_path):
     with pytest.raises(ValueError, match=r"g\.json: .*FIFO"):
         schema.read_json(_fifo(tmp_path / "g.json"))
     assert time.monotonic() - t0 < 2.0
+
+
+# ----------------------------------------------------------------------------- 6. MuJoCo's messages
+def test_an_mjcf_the_compiler_rejects_is_one_line(tmp_path, capfd, monkeypatch):
+    pytest.importorskip("mujoco")
+    text = open(RABBIT).read()
+    i = text.index('mass="')
+    j = text.index('"', i + 6)
+    bad = tmp_path / "nan.xml"
+    bad.write_text(text[:i] + 'mass="nan"' + text[j + 1:])
+    monkeypatch.chdir(tmp_path)
+    with pytest.raises(SystemExit) as exc:
+        cli.main(["optimize", "model", str(bad), "--stance", "left_foot", "--swing", "right_foot"])
+    assert exc.value.code == 2
+    cap = capfd.readouterr()
+    assert cap.out == ""
+    line = _one_error_line(cap.err)
+    assert "nan.xml" in line and "mass" in line and "NaN" in line, line
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["nan.xml"]  # no MUJOCO_LOG.TXT

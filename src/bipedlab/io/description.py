@@ -33,8 +33,10 @@ opposite normal), plus the reference anchor for the base position.
 """
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import os
+import warnings
 from typing import Sequence
 
 import numpy as np
@@ -82,17 +84,41 @@ def _mujoco():
     return mujoco
 
 
+def fold(text: str) -> str:
+    """A multi-line message (MuJoCo's) as one line: every run of blanks and line breaks one space."""
+    return " ".join(str(text).split())
+
+
+@contextlib.contextmanager
+def _warnings_kept(mujoco, kept: list):
+    """MuJoCo's warnings appended to ``kept`` meanwhile, instead of printed on stderr and
+    appended to MUJOCO_LOG.TXT in the working folder (its default handler)."""
+    previous = mujoco.get_mju_user_warning()
+    mujoco.set_mju_user_warning(lambda msg: kept.append(fold(msg)))
+    try:
+        yield
+    finally:
+        mujoco.set_mju_user_warning(previous)
+
+
 def _compile(path: str):
+    """(mujoco, the compiled model) of a file; ValueError in one line naming the file, with
+    MuJoCo's message and warnings folded into it, if the compiler rejects it. Warnings of a
+    file that compiles are issued as Python warnings, one line each."""
     mujoco = _mujoco()
     if not os.path.isfile(path):
         _fail(path, "no such file")
+    kept: list = []
     try:
-        spec = mujoco.MjSpec.from_file(path)
-        spec.compiler.fusestatic = False
-        m = spec.compile()
+        with _warnings_kept(mujoco, kept):
+            spec = mujoco.MjSpec.from_file(path)
+            spec.compiler.fusestatic = False
+            m = spec.compile()
     except Exception as e:  # MuJoCo raises ValueError (parse) or its own errors (compile)
-        msg = " ".join(str(e).split())
-        _fail(path, f"cannot be read as MJCF or URDF: {msg}")
+        warned = "".join(f" (MuJoCo warned: {w})" for w in dict.fromkeys(kept))
+        _fail(path, f"cannot be read as MJCF or URDF: {fold(e)}{warned}")
+    for w in dict.fromkeys(kept):
+        warnings.warn(f"{path}: MuJoCo: {w}", RuntimeWarning, stacklevel=3)
     return mujoco, m
 
 
