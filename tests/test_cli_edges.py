@@ -227,3 +227,51 @@ def test_an_mjcf_the_compiler_rejects_is_one_line(tmp_path, capfd, monkeypatch):
     line = _one_error_line(cap.err)
     assert "nan.xml" in line and "mass" in line and "NaN" in line, line
     assert sorted(p.name for p in tmp_path.iterdir()) == ["nan.xml"]  # no MUJOCO_LOG.TXT
+
+
+# ----------------------------------------------------------------------------- 7. what was not identified
+def _rotor(u, J=3e-4, mu=2e-3, bias=0.01, h=1e-3):
+    w, th, out = 0.0, 0.0, []
+    for v in u:
+        out.append(th)
+        th += h * w
+        w += h * (v + bias - mu * w) / J
+    return np.array(out)
+
+
+def _bias_log():
+    from bipedlab.robots.mabel.sysid.logs import Experiment
+
+    t = np.arange(400) * 1e-3
+    u = 0.02 * np.sin(2 * np.pi * 3 * t) + 0.01 * np.sin(2 * np.pi * 11 * t)
+    return Experiment("bias_mLA_L", "bias", t, {"mLA_L": u}, {"mla_L": _rotor(u)}, meta=dict(actuator="mLA_L"))
+
+
+def test_one_bias_log_says_what_it_did_not_identify(tmp_path, capsys):
+    from bipedlab.robots.mabel.sysid.logs import write_log
+
+    write_log(_bias_log(), tmp_path / "bias.csv")
+    assert cli.main(["identify", "mabel", "--data", str(tmp_path), "--json"]) == 0
+    cap = capsys.readouterr()
+    rec = json.loads(cap.out)
+    missing = {row["group"]: row for row in rec["not_identified"]}
+    assert {"motor_constant", "rotor_inertia_scale", "friction", "spring_stiffness", "cable_stretch", "hard_stop",
+            "ground", "bias"} <= set(missing)
+    assert "transmission" in missing["motor_constant"]["why"] and "hopping" in missing["ground"]["why"]
+    assert "bias_mLA_L" not in missing["bias"]["parameters"] and "bias_mLS_L" in missing["bias"]["parameters"]
+    assert all(row["parameters"] and row["why"] for row in rec["not_identified"])
+    rows = {p["name"]: p for p in rec["parameters"]}
+    assert rows["bias_mLA_L"]["identified"] is True and rows["kt_mLA_L"]["identified"] is False
+    said = [ln for ln in cap.err.splitlines() if "not identified" in ln]
+    assert len(said) == 1 and "motor_constant" in said[0], cap.err
+
+
+def test_logs_that_identify_nothing_are_refused(tmp_path, capsys):
+    from bipedlab.robots.mabel.sysid.logs import Experiment, write_log
+
+    t = np.arange(200) * 1e-3
+    u = 0.02 * np.sin(2 * np.pi * 3 * t) + 0.01 * np.sin(2 * np.pi * 11 * t)
+    write_log(Experiment("transmission_mLS_R_2", "transmission", t, {"mLS_R": u}, {"mls_R": _rotor(u, J=6e-4)},
+                         meta=dict(actuator="mLS_R", combination=2, cad_inertia=2.4e-4)), tmp_path / "t.csv")
+    line = expect_usage_error(["identify", "mabel", "--data", str(tmp_path)], capsys, needle="no parameter")
+    assert "two or more transmission logs" in line, line

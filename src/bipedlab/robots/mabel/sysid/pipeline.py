@@ -268,6 +268,86 @@ def validate(est: P.MabelParams, fits: dict) -> dict:
     return out
 
 
+# ----- what the logs cannot identify ----------------------------------------------------------
+NEEDS_BIAS = "needs a bias log of the actuator (Appendix A) or a leg log commanding it (Section V)"
+NEEDS_TRANSMISSION = ("needs two or more transmission logs of the actuator, of different pulley combinations "
+                      "(Section IV, eq. 12)")
+NEEDS_COMBINATION = "needs a transmission log of that pulley combination (Section IV, eq. 7)"
+NEEDS_LEG = "needs a SISO leg log commanding the actuator (Section V, eq. 19)"
+NEEDS_SPRING = "needs a spring log of that side (Section VII-A)"
+NEEDS_HOP = "needs a hopping log (Section VIII)"
+
+
+def coverage(experiments) -> dict:
+    """{parameter of :func:`parameter_table`: why these logs cannot identify it} from the logs'
+    kinds and metadata alone, before any fit (the parameters absent keep the published
+    values). The hopping fit may leave some of its variables undetermined as well: see
+    :func:`not_identified`."""
+    kinds = _by_kind(experiments)
+    legs = kinds.get("leg", [])
+    trans = {a: {_combination(e) for e in kinds.get("transmission", []) if e.meta["actuator"] == a}
+             for a in P.ACTUATORS}
+    siso = {next(iter(e.u)) for e in legs if len(e.u) == 1}
+    mimo = {a for e in legs if len(e.u) == 2 for a in rigs.LEG_ACTUATORS[e.meta["side"]]}
+    biased = {e.meta["actuator"] for e in kinds.get("bias", [])} | siso | mimo
+    springs = {e.meta["side"] for e in kinds.get("spring", [])}
+    why = {}
+    for a in P.ACTUATORS:
+        combos = trans[a] if len(trans[a]) >= 2 else set()
+        if not combos:
+            why[f"kt_{a}"] = why[f"alpha_{a}"] = NEEDS_TRANSMISSION
+        for c in (1, 2, 3):
+            if c not in combos:
+                why[f"trans_friction_{a}_{c}"] = NEEDS_COMBINATION if combos else NEEDS_TRANSMISSION
+        if a not in siso:
+            why[f"friction_{a}"] = NEEDS_LEG
+        if a not in biased:
+            why[f"bias_{a}"] = NEEDS_BIAS
+    for s in tb.SIDES:
+        if s not in springs:
+            why[f"spring_k_{s}"] = why[f"spring_preload_{s}"] = NEEDS_SPRING
+    if not kinds.get("hopping"):
+        for a in P.ACTUATORS:
+            why[f"cable_k_{a}"] = why[f"cable_d_{a}"] = NEEDS_HOP
+        for name in hopping_fit.HOP_VARIABLES:
+            why[name] = NEEDS_HOP
+    return why
+
+
+def unfitted(ident: "Identification", before: dict) -> dict:
+    """``before`` (:func:`coverage` of the logs) with the hopping fit's undetermined variables
+    added, each with its 1-sigma relative error."""
+    rel_std = ident.details.get("hopping", {}).get("rel_std", {})
+    why = dict(before)
+    for name, ok in ident.identified.items():
+        if not ok:
+            sd = rel_std.get(name)
+            size = "unbounded" if sd is None or not np.isfinite(sd) else f"{sd:.0%}"
+            why[name] = (f"the hop does not determine it (1-sigma relative error {size}, identified below "
+                         f"{hopping_fit.IDENTIFIABLE:.0%}): the estimate stays near the published value the fit "
+                         "starts from")
+    return why
+
+
+def not_identified(why: dict) -> list[dict]:
+    """Per group of :func:`parameter_table` (its order), the parameters in ``why`` and the
+    reasons: ``[{group, parameters, why}]``, nothing for a group identified in full."""
+    rows: dict = {}
+    for name, group, _, _ in parameter_table(P.published()):
+        if name in why:
+            row = rows.setdefault(group, dict(group=group, parameters=[], why=[]))
+            row["parameters"].append(name)
+            if why[name] not in row["why"]:
+                row["why"].append(why[name])
+    return [dict(r, why="; ".join(r["why"])) for r in rows.values()]
+
+
+def identifies_nothing(experiments, why: dict) -> bool:
+    """Whether logs with this :func:`coverage` determine nothing at all (no parameter, no
+    COM check): every estimate would be a published value."""
+    return len(why) == len(parameter_table(P.published())) and not any(e.kind == "balance" for e in experiments)
+
+
 # ----- comparison with a truth --------------------------------------------------------------
 def parameter_table(p: P.MabelParams) -> list[tuple]:
     """(name, group, value, unit) of every identified parameter of a set."""

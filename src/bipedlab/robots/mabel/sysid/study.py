@@ -11,6 +11,18 @@ from those logs alone, and the record compares each with its true value.
 no truth, so the record gives the estimates, their uncertainties where the fit gives them,
 and the validation of the identified models against the logs.
 
+What the logs do not determine is said, not left to be inferred from null accuracy figures:
+the record's ``not_identified`` lists, per group, the parameters that keep their published
+values and why (the log each one needs, or the hop's 1-sigma error for the hopping fit's
+undetermined variables), every row of ``parameters`` carries ``identified``, and one progress
+line on stderr names the groups. A folder that identifies only some groups still exits 0: a
+researcher often logs one experiment at a time (the biases again after an amplifier change,
+one leg's friction), and the published values beside the identified ones, each marked, are
+the useful answer. A folder whose logs determine nothing at all (every estimate would be a
+published value, e.g. a single transmission log, which cannot separate K_T from alpha) is
+refused before any fit, with status 2 and one line saying what is needed: such a record would
+only repeat the tables.
+
 :func:`noise_study` repeats the synthetic identification at several noise levels.
 """
 from __future__ import annotations
@@ -46,9 +58,14 @@ def _validation_summary(validation: dict) -> tuple[float | None, float | None]:
     return (max(joints) if joints else None), (max(cables) if cables else None)
 
 
-def record(ident: sysid.Identification, truth: sysid.MabelParams | None) -> dict:
-    """The JSON-ready record of an identification (compared with truth when given)."""
+def record(ident: sysid.Identification, truth: sysid.MabelParams | None, missing: dict | None = None) -> dict:
+    """The JSON-ready record of an identification (compared with truth when given);
+    ``missing``: :func:`pipeline.coverage` of its logs, reported as ``not_identified`` with
+    the hopping fit's undetermined variables added."""
     cmp = sid.compare(truth, ident)
+    why = sid.unfitted(ident, missing or {})
+    for row in cmp["parameters"]:
+        row.setdefault("identified", row["name"] not in why)
     joints, cables = _validation_summary(ident.details.get("validation", {}))
     hop = ident.details.get("hopping", {})
     rec = {
@@ -62,6 +79,7 @@ def record(ident: sysid.Identification, truth: sysid.MabelParams | None) -> dict
         "targets": cmp.get("targets"),
         "targets_met": cmp.get("targets_met"),
         "parameters": cmp["parameters"],
+        "not_identified": sid.not_identified(why),
         "identifiability": {k: dict(rel_std=hop["rel_std"][k], identified=hop["identified"][k])
                             for k in hop.get("rel_std", {})},
         "identifiability_note": IDENTIFIABILITY,
@@ -106,17 +124,25 @@ def study(synthetic_data: bool = True, data: str | None = None, seed: int = 0, n
     t0 = time.perf_counter()
     if data is not None:
         logs = sysid.read_logs(data)
+        missing = sid.coverage(logs)
+        if sid.identifies_nothing(logs, missing):
+            raise sysid.LogError(f"{data}: these {len(logs)} log{'s' if len(logs) > 1 else ''} identify no parameter "
+                                 f"(every estimate would be a published value): "
+                                 + "; ".join(dict.fromkeys(missing.values())))
         truth = None
         ident = sysid.identify(logs, progress=progress)
     else:
         truth, logs, ident = synthetic(seed, noise, quick, progress)
+        missing = sid.coverage(logs)
     rec = {"robot": "mabel", "mode": "data" if data is not None else "synthetic"}
     if data is not None:
         rec["data"] = str(data)
         rec["logs"] = len(logs)
     else:
         rec.update(seed=seed, noise_level=noise, noise_units=NOISE_UNITS, design="quick" if quick else "paper")
-    rec.update(record(ident, truth))
+    rec.update(record(ident, truth, missing))
+    if progress and rec["not_identified"]:
+        progress(not_identified_line(rec["not_identified"]))
     if noise_levels:
         rec["noise_study"] = noise_study(noise_levels, seed, quick, progress)
     if out:
@@ -129,6 +155,12 @@ def study(synthetic_data: bool = True, data: str | None = None, seed: int = 0, n
             rec["logs_written"] = len(sysid.write_logs(logs, f"{out}/logs"))
     rec["wall_time_s"] = time.perf_counter() - t0
     return clean(rec)
+
+
+def not_identified_line(rows: list) -> str:
+    """One line naming the groups ``not_identified`` lists (the record holds the parameters and why)."""
+    groups = ", ".join(f"{r['group']} ({len(r['parameters'])})" for r in rows)
+    return f"not identified from these logs, published values kept: {groups}; see not_identified in the record"
 
 
 def clean(obj):
@@ -175,7 +207,12 @@ def summary(rec: dict) -> str:
     else:
         lines.append("  estimates:")
         for p in rec.get("parameters") or []:
-            lines.append(f"    {p['name']:<26} {_fmt(p.get('estimate'), '.5g')} {p['unit']}")
+            lines.append(f"    {p['name']:<26} {_fmt(p.get('estimate'), '.5g')} {p['unit']}"
+                         + ("  (published)" if p.get("identified") is False else ""))
+    if rec.get("not_identified"):
+        lines.append("  not identified (published values kept):")
+        for r in rec["not_identified"]:
+            lines.append(f"    {r['group']:<20} {len(r['parameters'])} parameters: {r['why']}")
     if rec.get("validation_rms_deg") is not None:
         lines.append(f"  validation rms (simulated vs measured joint angles): {rec['validation_rms_deg']:.3f} deg max; "
                      f"cable stretch {_fmt(rec.get('validation_cable_stretch_rms_deg'), '.3f')} deg (motor side)")
