@@ -16,6 +16,7 @@ import json
 import math
 import os
 import pathlib
+import re
 import shutil
 import signal
 import subprocess
@@ -339,6 +340,140 @@ def _argv_property(n: int):
 
 test_generated_command_lines = _argv_property(120)
 test_generated_command_lines_slow = pytest.mark.slow(_argv_property(2000))
+
+
+# ----------------------------------------------------------------------------- launch variables
+LAUNCH = ["robustness five-link", "robustness mabel", "robustness model", "robustness atrias"]
+_MULTI = {"JAX_NUM_PROCESSES": "2", "JAX_PROCESS_ID": "0", "JAX_COORDINATOR_ADDRESS": "localhost:1"}
+#: variable: (the other variables that make it read, [lo, hi] of an integer, or None for HOST:PORT)
+LAUNCH_VARIABLES = {
+    "SLURM_NTASKS": ({}, (1, 65536)), "SLURM_PROCID": ({}, (0, 65535)),
+    "JAX_NUM_PROCESSES": ({}, (1, 65536)), "JAX_PROCESS_ID": ({}, (0, 65535)),
+    "JAX_COORDINATOR_ADDRESS": ({}, None), "JAX_LOCAL_DEVICE_IDS": (_MULTI, (0, 65535)),
+}
+_ENV_TEXT = st.text(alphabet=st.characters(blacklist_categories=("Cs",), blacklist_characters="\x00"), max_size=12)
+
+
+@contextlib.contextmanager
+def _environment(values: dict):
+    """os.environ with the launch variables cleared and ``values`` set, restored afterwards."""
+    names = set(LAUNCH_VARIABLES) | set(values) | {"SLURM_JOB_ID", "SLURM_STEP_NODELIST", "SLURM_LOCALID"}
+    saved = {k: os.environ.get(k) for k in names}
+    try:
+        for k in names:
+            os.environ.pop(k, None)
+        os.environ.update(values)
+        yield
+    finally:
+        for k, v in saved.items():
+            if v is None:
+                os.environ.pop(k, None)
+            else:
+                os.environ[k] = v
+
+
+def _integer_verdict(value: str, lo: int, hi: int, many: bool = False):
+    """True: a valid integer, or with ``many`` integers separated by commas (or blank:
+    unset); False: refused."""
+    if not value.strip():
+        return True
+    items = value.split(",") if many else [value]
+    return all(re.fullmatch(r"\s*[0-9]+\s*", x) is not None and lo <= int(x) <= hi for x in items)
+
+
+def _address_verdict(value: str):
+    """True: certainly HOST:PORT; False: certainly not; None: either (the grammar's fine print)."""
+    if not value.strip():
+        return True
+    host, colon, port = value.rpartition(":")
+    if not colon or not host or re.fullmatch(r"[0-9]{1,5}", port) is None or not 1 <= int(port) <= 65535:
+        return False
+    return True if re.fullmatch(r"[A-Za-z0-9]+", host) else None
+
+
+def _launch_property(n: int):
+    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @given(data=st.data())
+    def check(data):
+        name = data.draw(st.sampled_from(LAUNCH), label="command")
+        var = data.draw(st.sampled_from(sorted(LAUNCH_VARIABLES)), label="variable")
+        context, bounds = LAUNCH_VARIABLES[var]
+        value = data.draw(st.one_of(_ENV_TEXT, st.sampled_from(
+            ["", " ", "0", "1", "2", " 3 ", "-1", "+2", "two", "1.5", "1e3", "\u0663", "65537", "0,1", "a,b", ",",
+             "localhost:1", "h:0", ":80", "[::1]:5", "h:65536", "notahost", "a b:1"])), label="value")
+        with _environment(dict(context, **{var: value})):
+            args, code, out, err = _parse(_base(name))
+        assert out == ""
+        if code is not None:
+            assert code == 2 and len(err.splitlines()) == 1 and err.startswith("bipedlab: error: "), (var, value, err)
+        if var == "JAX_LOCAL_DEVICE_IDS" and not value.strip():
+            return
+        verdict = (_address_verdict(value) if bounds is None
+                   else _integer_verdict(value, *bounds, many=var == "JAX_LOCAL_DEVICE_IDS"))
+        if verdict is False:
+            assert code == 2 and f"${var}" in err, (var, value, err)
+        elif verdict and (var in ("SLURM_PROCID", "JAX_COORDINATOR_ADDRESS", "JAX_LOCAL_DEVICE_IDS")
+                          or (var == "JAX_PROCESS_ID" and not value.strip().strip("0"))):
+            assert code is None, (var, value, err)  # read, valid, and nothing else asks for more
+    return check
+
+
+test_generated_launch_variables = _launch_property(150)
+test_generated_launch_variables_slow = pytest.mark.slow(_launch_property(1500))
+
+
+# ----------------------------------------------------------------------------- files that are not regular
+@pytest.fixture(scope="module")
+def special_files(tmp_path_factory):
+    """{kind: a path of that kind}, and {kind: a folder whose a.csv is of that kind}."""
+    d = tmp_path_factory.mktemp("special")
+    paths = {"fifo": d / "fifo.json", "directory": d / "folder.json", "/dev/null": d / "null.json",
+             "symlink loop": d / "loop.json", "dangling symlink": d / "dangling.json", "/dev/zero": d / "zero.json"}
+    os.mkfifo(paths["fifo"])
+    paths["directory"].mkdir()
+    os.symlink("/dev/null", paths["/dev/null"])
+    os.symlink("/dev/zero", paths["/dev/zero"])
+    os.symlink(d / "loop2.json", paths["symlink loop"])
+    os.symlink(paths["symlink loop"], d / "loop2.json")
+    os.symlink(d / "nowhere.json", paths["dangling symlink"])
+    folders = {}
+    for kind, path in paths.items():
+        folders[kind] = d / f"logs-{kind.strip('/').replace('/', '-').replace(' ', '-')}"
+        folders[kind].mkdir()
+        os.symlink(path, folders[kind] / "a.csv") if kind != "directory" else (folders[kind] / "a.csv").mkdir()
+    os.mkfifo(folders["fifo"] / "b.csv")
+    return {k: str(v) for k, v in paths.items()}, {k: str(v) for k, v in folders.items()}
+
+
+#: command lines taking a file (X): as a gait, a model or a log folder
+FILE_TARGETS = [
+    ["walk", "five-link", "--gait", "X"], ["walk", "mabel", "--gait", "X"], ["robustness", "mabel", "--gait", "X"],
+    ["walk", "model", "X", "--gait", REQUIRED_VALUES["--gait"]], ["robustness", "model", "X", "--gait",
+                                                                  REQUIRED_VALUES["--gait"]],
+    ["optimize", "model", "X", "--stance", "left_foot", "--swing", "right_foot"],
+    ["walk", "model", "rabbit.xml", "--gait", "X"], ["robustness", "model", "rabbit.xml", "--gait", "X"],
+    ["identify", "mabel", "--data", "X"], ["identify", "mabel", "--data", "LOGS"],
+]
+
+
+def _file_property(n: int):
+    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @given(target=st.sampled_from(FILE_TARGETS), kind=st.sampled_from(
+        ["fifo", "directory", "/dev/null", "symlink loop", "dangling symlink", "/dev/zero"]))
+    def check(special_files, target, kind):
+        paths, folders = special_files
+        if target[-1] == "X" and target[-2] == "--data" and kind == "directory":
+            return  # a folder is what --data takes
+        argv = [paths[kind] if w == "X" else folders[kind] if w == "LOGS" else w for w in target]
+        t0 = time.perf_counter()
+        line = _refused(argv)
+        assert time.perf_counter() - t0 < 1.0 and "Traceback" not in line
+        assert (paths[kind] if "X" in target else folders[kind]) in line, line
+    return check
+
+
+test_generated_special_files = _file_property(60)
+test_generated_special_files_slow = pytest.mark.slow(_file_property(600))
 
 
 # ----------------------------------------------------------------------------- the issue's cases
