@@ -198,7 +198,7 @@ def test_the_log_reader_refuses_a_fifo_without_opening_it(tmp_path):
     t0 = time.monotonic()
     with pytest.raises(LogError, match=r"a\.csv: .*FIFO"):
         read_log(_fifo(tmp_path / "a.csv"))
-    assert time.monotonic() - t0 < 2.0
+    assert time.monotonic() - t0 < 4.5  # the writer releases the FIFO after 5 s
 
 
 def test_the_gait_reader_refuses_a_fifo_without_opening_it(tmp_path):
@@ -207,7 +207,7 @@ def test_the_gait_reader_refuses_a_fifo_without_opening_it(tmp_path):
     t0 = time.monotonic()
     with pytest.raises(ValueError, match=r"g\.json: .*FIFO"):
         schema.read_json(_fifo(tmp_path / "g.json"))
-    assert time.monotonic() - t0 < 2.0
+    assert time.monotonic() - t0 < 4.5  # the writer releases the FIFO after 5 s
 
 
 # ----------------------------------------------------------------------------- 6. MuJoCo's messages

@@ -38,13 +38,15 @@ bins, unit), ``survival_map`` (per-cell survival, null where a cell has no trial
 ``cell_trials``, ``fell``, ``nonfinite``, ``fell_at_histogram`` and the figure/NPZ paths.
 
 Distributed runs: :func:`initialize` (``jax.distributed.initialize`` with CPU collectives over
-gloo) before anything touches a device; then every process calls :func:`run` with the same
+gloo, waited for up to a timeout; :class:`JoinError` when the job cannot be joined) before
+anything touches a device; then every process calls :func:`run` with the same
 arguments; the batch is sharded over ``jax.devices()`` (all processes) with
 ``NamedSharding(mesh, P('batch'))``, each process computes its addressable shard, and the
 outcomes are gathered with ``multihost_utils.process_allgather``; only process 0 writes files.
 :mod:`bipedlab.robustness.options` adds the command-line options (``--trials``, ``--seed``,
-``--chunk``, ``--devices``, ``--coordinator``, ``--num-processes``, ``--process-id``) and the
-hooks a robot's ``robustness`` command uses.
+``--chunk``, ``--devices``, ``--coordinator``, ``--num-processes``, ``--process-id``,
+``--init-timeout``, each checked with the environment variables they default to before any
+work) and the hooks a robot's ``robustness`` command uses.
 """
 import importlib
 
@@ -52,7 +54,7 @@ _EXPORTS = {
     "Axis": "engine", "Study": "engine", "run": "engine", "summary": "engine", "uniform": "engine", "grid": "engine",
     "outcome_arrays": "engine", "survival_map": "engine",
     "initialize": "distributed", "global_mesh": "distributed", "sharded_map": "distributed",
-    "process_count": "distributed", "process_index": "distributed",
+    "process_count": "distributed", "process_index": "distributed", "JoinError": "distributed",
 }
 __all__ = sorted(_EXPORTS)
 
