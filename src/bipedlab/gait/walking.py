@@ -163,7 +163,7 @@ def restricted_map(vc, st: Stance, theta_dot_minus, nodes: int = 60):
     q, qd = hzd.lift(vc, vc.theta_minus, theta_dot_minus)
     zp, _, _, _ = impact(st, jnp.concatenate([q, qd]))
     prob = GaitProblem(st, vc.H0, vc.c, order=vc.order, nodes=nodes)  # H0, c may be traced
-    wf = integrate_zero_dynamics(prob, vc, vc.c @ zp[st.n:])[0]
+    wf = integrate_zero_dynamics(prob, vc, vc.c @ zp[st.n:], scan_stages=True)[0]
     return jnp.sqrt(jnp.maximum(2.0 * wf[0], 0.0))
 
 
