@@ -24,13 +24,18 @@ from bipedlab.sim.loop import FELL, NONFINITE, OK, STATUS_NAMES, SampledLoop  # 
 class RolloutSpec:
     """Static rollout settings. dt: integration step (s); substeps: integration steps per
     control step; steps: control steps; integrator: 'rk4' | 'heun' | 'semi_implicit_euler';
-    record: keep the state after every control step (else only the final state)."""
+    record: keep the state after every control step (else only the final state);
+    compact: the program holds the flow once (the substeps a loop, RK4's four stages a scan
+    over one traced flow, :func:`~bipedlab.sim.integrators.rk4_scan`) instead of once per
+    stage and substep: the five-link standing rollout compiles in 2-4 s instead of 18-22 s
+    and runs as fast (``bipedlab bench``); same numbers up to the contraction of multiply-adds."""
 
     dt: float = 2.5e-4
     substeps: int = 4
     steps: int = 2000
     integrator: str = "rk4"
     record: bool = False
+    compact: bool = True
 
     @property
     def control_period(self) -> float:
@@ -56,7 +61,7 @@ class RolloutResult:
 def _loop(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec) -> SampledLoop:
     """The rollout as a :class:`~bipedlab.sim.loop.SampledLoop`: exact state sensed, a
     stateless policy (its state is the sample index), the integrator's step as the substep."""
-    step = integrators.get(spec.integrator)
+    step = integrators.rk4_scan if spec.compact and spec.integrator == "rk4" else integrators.get(spec.integrator)
 
     def plant_step(params, x, u, d, h, t):
         return step(lambda z, v: flow(params, z, v), x, u, h)
@@ -66,7 +71,7 @@ def _loop(flow: Callable, policy: Callable, fell: Callable, spec: RolloutSpec) -
 
     return SampledLoop(plant_step=plant_step, sensor=lambda p, s, x, t: (s, x), controller=controller,
                        fell=lambda p, x0, y, u, x: fell(p, x), sample_time=spec.dt * spec.substeps,
-                       substeps=spec.substeps, unroll=True,
+                       substeps=spec.substeps, unroll=not spec.compact,
                        log=(lambda p, x0, y, u, x, c: x) if spec.record else None)
 
 
