@@ -183,13 +183,12 @@ LOW_LEVEL_LOCATORS = re.compile(r"regula_falsi\w*|bisection\w*|newton|first_on_g
 HYBRID_EXEMPT = {
     "bipedlab.robots.seven_link.contact": "several contacts at once: a vector guard bisected inside its own "
                                           "while_loop (sim.hybrid.substep takes a scalar guard)",
-    "bipedlab.robots.mabel.walking.zero_dynamics": "the zero dynamics integrated in the phase variable to the "
-                                                   "swing-toe guard, the last step by Newton",
     "bipedlab.robots.seven_link.robustness": "a while_loop over control samples until a fall (no event "
                                              "located), written beside sim.loop",
 }
 #: drivers moved onto the core's hybrid step
-HYBRID_PORTED = ["bipedlab.robots.mabel.walking.loop", "bipedlab.robots.atrias.slip_run"]
+HYBRID_PORTED = ["bipedlab.robots.mabel.walking.loop", "bipedlab.robots.atrias.slip_run",
+                 "bipedlab.robots.mabel.walking.poincare"]
 
 
 def _event_loop_uses(source: str) -> list[str]:

@@ -30,6 +30,12 @@ Stages:
   (secant iterations to a tolerance), or, with ``locate="linear"``, the state is linearly
   interpolated between the two integration steps around the crossing (first order in the step;
   kept for results recorded with it);
+* :func:`step_to_guard` - one integrator step in an independent variable (a phase variable
+  the flow is written in, or time) from a point near the event, of the length where a smooth
+  guard of (variable, state) vanishes: the closing step of a flow integrated on fixed nodes
+  (``method="newton"``: Newton's method on the step length, its derivative by forward mode, a
+  fixed number of iterations), smooth in the initial state so its forward-mode derivative is
+  the exact event's;
 * :func:`first_event_time` - the first time a guard given as a function of time reaches zero,
   for motions known in closed form (a ballistic flight), where nothing is integrated and the
   guard may jump (a foot passing over a terrain step): a grid, then bisection.
@@ -53,8 +59,8 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.pytree import pytree, static_field
-from bipedlab.sim.events import StepResult, bisection, first_on_grid, flow_to_event, linear_crossing
-from bipedlab.sim.integrators import rk4
+from bipedlab.sim.events import StepResult, bisection, first_on_grid, flow_to_event, linear_crossing, newton
+from bipedlab.sim.integrators import rk4, rk4_t_scan
 from bipedlab.sim.rollout import FELL, NONFINITE, OK
 
 
@@ -242,6 +248,27 @@ def _flow_linear(tr: Transition, x0, u, h, max_steps: int, fell: Callable | None
                       status=status)
 
 
+def step_to_guard(flow: Callable, s, w, guard: Callable, h0, iterations: int = 4, method: str = "newton",
+                  integrator: Callable = rk4_t_scan):
+    """One step of ``integrator`` from ``(s, w)`` in the independent variable ``s`` of
+    ``dw/ds, aux = flow(s, w)``, of the length h where ``guard(s + h, w(s + h))`` vanishes.
+
+    ``integrator(flow, s, w, h) -> (w(s + h), aux)`` (default
+    :func:`bipedlab.sim.integrators.rk4_t_scan`); ``method="newton"``: ``iterations`` Newton
+    steps on h from ``h0`` (``s`` units, e.g. 0 when ``s`` is the nominal end of the flow), the
+    guard's slope by forward mode through the step. The step is a smooth function of ``w`` and
+    of everything the flow is traced with, so forward-mode derivatives of the result are those
+    of the exact event. Returns (s at the event, w there)."""
+    if method != "newton":
+        raise ValueError(f"step_to_guard: unknown method {method!r}; choose 'newton'")
+
+    def g(h):
+        return guard(s + h, integrator(flow, s, w, h)[0])
+
+    h = newton(g, h0, iterations)
+    return s + h, integrator(flow, s, w, h)[0]
+
+
 def first_event_time(guard_at: Callable, t_max: float, n: int, t_min: float = 0.0, iterations: int = 40):
     """The first time in (t_min, t_max] (s) at which ``guard_at(t) <= 0``, for a motion known in
     closed form as a function of time: the first of ``n`` grid points from 0 to ``t_max`` past
@@ -256,4 +283,4 @@ def first_event_time(guard_at: Callable, t_max: float, n: int, t_min: float = 0.
     return hi, found
 
 
-__all__ = ["Event", "Transition", "first_event_time", "flow_until_event", "substep"]
+__all__ = ["Event", "Transition", "first_event_time", "flow_until_event", "step_to_guard", "substep"]

@@ -222,3 +222,26 @@ def test_first_event_time_of_a_closed_form_flight():
     assert bool(found) and float(t) == pytest.approx(1.0, abs=2 * tol)
     _, found = hybrid.first_event_time(lambda t: 1.0 + t, t_max, n)
     assert not bool(found)
+
+
+def test_step_to_guard_closes_a_flow_at_its_event_with_the_exact_derivative():
+    """The ball's fall closed by one step from a point near the impact: the step length is the
+    impact time (RK4 is exact on the quadratic), and its forward-mode derivative in the
+    starting height is the closed form's d t / d y0 = 1 / sqrt(v0^2 + 2 G y0)."""
+    flow = lambda s, w: (jnp.stack([w[1], -G + 0.0 * w[0]]), w[0])  # noqa: E731
+    guard = lambda s, w: w[0]  # noqa: E731
+    v0 = -1.0
+
+    def event(y0):
+        return hybrid.step_to_guard(flow, jnp.asarray(0.0), jnp.stack([y0, v0]), guard, jnp.asarray(0.0),
+                                    iterations=6)
+
+    y0 = 0.02
+    s, w = jax.jit(event)(jnp.asarray(y0))
+    t, speed, _ = _ball_oracle(y0, v0, 0.0)
+    assert float(s) == pytest.approx(t, abs=1e-14)
+    np.testing.assert_allclose(np.asarray(w), [0.0, -speed], atol=1e-13)
+    dt = float(jax.jacfwd(lambda y: event(y)[0])(jnp.asarray(y0)))
+    assert dt == pytest.approx(1.0 / np.sqrt(v0**2 + 2 * G * y0), rel=1e-10)
+    with pytest.raises(ValueError, match="method"):
+        hybrid.step_to_guard(flow, 0.0, jnp.stack([y0, v0]), guard, 0.0, method="bisection")

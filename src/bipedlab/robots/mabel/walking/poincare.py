@@ -2,8 +2,8 @@
 
 Both maps are taken on the switching surface S_si->sd (theta_s = theta_si) and integrate in
 theta with fixed RK4 nodes per sub-phase; the state-dependent events (touchdown, the 5 deg
-spring trigger) are closed by one RK4 step whose length Newton's method finds
-(:func:`~bipedlab.robots.mabel.walking.zero_dynamics.to_event`), so the maps are smooth and their Jacobians exact
+spring trigger) are closed by one RK4 step whose length Newton's method finds (:func:`to_event`,
+on the core's :func:`bipedlab.sim.hybrid.step_to_guard`), so the maps are smooth and their Jacobians exact
 (forward mode), checked against central differences.
 
 - :func:`full_map` (eq. 44): the 12-state stance dynamics in closed loop with a controller
@@ -24,6 +24,7 @@ from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import zero_dynamics as zd
 from bipedlab.gait.poincare import central_differences, eigenvalues, fixed_point, value_and_jacobian  # noqa: F401
+from bipedlab.sim import hybrid
 
 #: RK4 steps per sub-phase (MC, SC, SI, SD) for the closed-loop maps
 NODES = (6, 28, 28, 24)
@@ -49,6 +50,14 @@ def _spring(th, z):
     return z[2] - vcm.SPRING_TRIGGER
 
 
+def to_event(f, th, w, guard, h0=None):
+    """The RK4 step in theta (:func:`~bipedlab.robots.mabel.walking.zero_dynamics.rk4`) from
+    (th, w) to where ``guard(theta, w)`` vanishes, by Newton's method from ``h0`` (default 0:
+    th is the nominal end of the sub-phase), four iterations; returns (theta_event, w_event)."""
+    h0 = jnp.zeros(()) if h0 is None else h0
+    return hybrid.step_to_guard(f, th, w, guard, h0, iterations=4, method="newton", integrator=zd.rk4)
+
+
 def _phase_run(f, phase, w, th0, th1, n):
     return zd.integrate(f, phase, w, th0, th1, n)[0]
 
@@ -66,14 +75,13 @@ def full_map(m, kind, g, nominal, z, eta=1.0, invariant=True, nodes=NODES):
     f_sd = closed_loop(m, kind, g, nominal)
     th0 = vcm.theta(z[:6])
     w = _phase_run(f_sd, vcm.SD, z, th0, nominal.theta_minus, n4)
-    h0 = jnp.zeros(())
-    _, z_minus = zd.to_event(lambda th, w: f_sd(vcm.SD, th, w), nominal.theta_minus, w, _toe(m), h0)
+    _, z_minus = to_event(lambda th, w: f_sd(vcm.SD, th, w), nominal.theta_minus, w, _toe(m))
     zp = wk.impact(m, z_minus, eta).z_plus
     vc = _after_impact(kind, nominal, zp, invariant)
     f = closed_loop(m, kind, g, vc)
     w = _phase_run(f, vcm.MC, zp, vcm.theta(zp[:6]), vc.theta_mc, n1)
     w = _phase_run(f, vcm.SC, w, vc.theta_mc, nominal.theta_sc, n2)
-    th_sc, w = zd.to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w, _spring, h0)
+    th_sc, w = to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w, _spring)
     vc = vc.replace(theta_sc=th_sc)
     f = closed_loop(m, kind, g, vc)
     w = _phase_run(f, vcm.SI, w, th_sc, vc.theta_si, n3)
@@ -88,8 +96,8 @@ def restricted_map(m, nominal, x, eta=1.0, nodes=NODES):
     w = jnp.concatenate([x, pad])
     f0 = zd.zero_dynamics(m, nominal)
     w = _phase_run(f0, vcm.SD, w, nominal.theta_si, nominal.theta_minus, n4)
-    th_m, w = zd.to_event(lambda th, v: f0(vcm.SD, th, v), nominal.theta_minus, w,
-                          lambda th, v: zd.swing_height(m, nominal, vcm.SD, th, v), jnp.zeros(()))
+    th_m, w = to_event(lambda th, v: f0(vcm.SD, th, v), nominal.theta_minus, w,
+                       lambda th, v: zd.swing_height(m, nominal, vcm.SD, th, v))
     z_minus = zd.state(nominal, vcm.SD, th_m, w)
     zp = wk.impact(m, z_minus, eta).z_plus
     vc = vcm.update_at_impact(nominal, zp[:6], zp[6:], nominal, invariant=True)
@@ -97,8 +105,7 @@ def restricted_map(m, nominal, x, eta=1.0, nodes=NODES):
     f = zd.zero_dynamics(m, vc)
     w = _phase_run(f, vcm.MC, w, vc.theta_plus, vc.theta_mc, n1)
     w = _phase_run(f, vcm.SC, w, vc.theta_mc, nominal.theta_sc, n2)
-    th_sc, w = zd.to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w,
-                           zd.spring_guard, jnp.zeros(()))
+    th_sc, w = to_event(lambda th, v: f(vcm.SC, th, v), nominal.theta_sc, w, zd.spring_guard)
     vc = vc.replace(theta_sc=th_sc)
     f = zd.zero_dynamics(m, vc)
     w = _phase_run(f, vcm.SI, w, th_sc, vc.theta_si, n3)

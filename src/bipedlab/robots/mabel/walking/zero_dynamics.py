@@ -12,9 +12,9 @@ Integration is in theta (RK4, fixed nodes per sub-phase), with time and the cost
 carried along: ``w = (b, thetadot, bdot, t, int |u|^2 dt, int positive motor work,
 negative work at the stance leg shape by its motor, and by its spring)``. A sub-phase ending
 at a state-dependent event (the 5 deg spring trigger, touchdown) is closed by one more RK4
-step whose length is found by Newton's method (:func:`to_event`, on
-:func:`bipedlab.sim.events.newton`), so the map stays smooth
-for forward-mode derivatives.
+step whose length is found by Newton's method (the core's hybrid stage
+:func:`bipedlab.sim.hybrid.step_to_guard`, with :func:`rk4`), so the map stays smooth for
+forward-mode derivatives.
 """
 from __future__ import annotations
 
@@ -24,7 +24,6 @@ import jax.numpy as jnp
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import stance as wk
-from bipedlab.sim.events import newton
 from bipedlab.sim.integrators import rk4_t_scan
 
 GEAR_LA = tb.GEAR_LA
@@ -84,17 +83,6 @@ def integrate(f, phase, w0, th0, th1, n: int):
     h = (th1 - th0) / n
     k = jnp.arange(n)
     return integrate_nodes(f, w0, th0 + k * h, jnp.full(n, h), jnp.full(n, phase))
-
-
-def to_event(f, th, w, guard, h0, iterations: int = 4):
-    """One RK4 step from (th, w) of the length h (starting from h0) where guard(theta, w)
-    vanishes, by Newton's method; returns (theta_event, w_event)."""
-
-    def g(h):
-        return guard(th + h, rk4(f, th, w, h)[0])
-
-    h = newton(g, h0, iterations)
-    return th + h, rk4(f, th, w, h)[0]
 
 
 def zero_dynamics(m, vc):
