@@ -3,8 +3,9 @@ Poincaré analysis of both the full closed loop and the restricted (zero-dynamic
 
 The Poincaré section is the impact surface (swing toe on the ground): ``P(z-)`` applies the
 impact and relabelling, then flows under the controller until the next touchdown, located
-exactly (:mod:`bipedlab.sim.events`). Its Jacobian comes from forward-mode autodiff through
-the hybrid flow, event-time sensitivity included. P maps a neighbourhood of the section into
+exactly (the core's hybrid stage :func:`bipedlab.sim.hybrid.flow_until_event` on the section
+before the reset). Its Jacobian comes from forward-mode autodiff through the hybrid flow,
+event-time sensitivity included. P maps a neighbourhood of the section into
 the section, so the Jacobian has the restricted map's eigenvalues plus one zero. The restricted
 map ``rho(thetadot-)`` lives on the zero dynamics (one degree of underactuation: one
 eigenvalue).
@@ -22,7 +23,7 @@ from bipedlab.control import hzd
 from bipedlab.mechanics.stance import Stance, embed, impact, stance_affine, swing_height, swing_position
 from bipedlab.gait.poincare import central_differences
 from bipedlab.pytree import pytree
-from bipedlab.sim.events import flow_to_event
+from bipedlab.sim import hybrid
 from bipedlab.sim.rollout import OK
 
 
@@ -85,19 +86,31 @@ class Step:
     status: jax.Array
 
 
-def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: float = 2.0,
-         min_height: float = 0.0) -> Step:
-    """One step from a pre-impact state: impact, relabel, closed-loop flow to the next touchdown."""
-    zp, _, _, _ = impact(st, z_minus)
+def transition(vc, st: Stance, ctrl: Controller) -> hybrid.Transition:
+    """The touchdown as a :class:`bipedlab.sim.hybrid.Transition`: the stance model in closed
+    loop with the controller (the torque is a function of the state: no held input), the swing
+    point's height as the guard, armed past the middle of the step in the phase variable, and
+    the reset, the impact and relabelling, reporting (impulse (2,) N s, step vector (2,) m,
+    velocity of the lifting foot (2,) m/s) of :func:`bipedlab.mechanics.stance.impact`."""
     u_of = control_law(vc, st, ctrl)
-    n = st.n
     mid = vc.theta_plus + 0.5 * (vc.theta_minus - vc.theta_plus)
 
-    def f(z):
-        return _closed_loop(vc, st, z, u_of(z))
+    def reset(z):
+        zp, impulse, vec, lift = impact(st, z)
+        return zp, (impulse, vec, lift)
 
-    def armed(z):
-        return vc.c @ z[:n] > mid
+    return hybrid.Transition(flow=lambda z, u: _closed_loop(vc, st, z, u_of(z)),
+                             guard=lambda z: _swing_height(st, z), armed=lambda z: vc.c @ z[:st.n] > mid,
+                             reset=reset)
+
+
+def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: float = 2.0,
+         min_height: float = 0.0) -> Step:
+    """One step from a pre-impact state: impact, relabel, closed-loop flow to the next
+    touchdown (:func:`bipedlab.sim.hybrid.flow_until_event` on :func:`transition`, the map of
+    the pre-impact section)."""
+    u_of = control_law(vc, st, ctrl)
+    n = st.n
 
     def integrand(z):
         return _integrand(vc, st, z, u_of(z))
@@ -106,7 +119,8 @@ def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: f
         q, _ = embed(st, z)
         return (q[1] < min_height) | (vc.c @ z[n:] <= 0.0)
 
-    r = flow_to_event(f, lambda z: _swing_height(st, z), armed, zp, h, max_time, integrand, fell)
+    r, zp, _ = hybrid.flow_until_event(transition(vc, st, ctrl), z_minus, None, h, max_time, integrand, fell,
+                                       section="pre")
     return Step(r.z, zp, r.t, swing_position(st, r.z)[0], r.integrals[0], r.integrals[1],
                 r.integrals[2], r.status)
 

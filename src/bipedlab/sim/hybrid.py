@@ -26,8 +26,9 @@ Stages:
   call of the reset. Returns the state and
   an :class:`Event` (``event``, ``fraction`` of ``h`` before it, the reset's ``info``).
 * :func:`flow_until_event` - flow from a state until the event and reset it, for step-to-step
-  (Poincare) maps: the crossing is located by :func:`bipedlab.sim.events.flow_to_event`
-  (secant iterations to a tolerance), or, with ``locate="linear"``, the state is linearly
+  (Poincare) maps on the section after the reset, or reset a state at an event and flow to the
+  next one, for maps on the section before it (``section="pre"``): the crossing is located
+  by :func:`bipedlab.sim.events.flow_to_event` (secant iterations to a tolerance), or, with ``locate="linear"``, the state is linearly
   interpolated between the two integration steps around the crossing (first order in the step;
   kept for results recorded with it);
 * :func:`step_to_guard` - one integrator step in an independent variable (a phase variable
@@ -194,9 +195,15 @@ def substep(tr: Transition, x, u, h):
 
 def flow_until_event(tr: Transition, x0, u, h: float, max_time: float, integrand: Callable | None = None,
                      fell: Callable | None = None, locate: str = "secant", tol: float = 1e-13,
-                     max_refine: int = 30):
-    """Flow ``tr.flow`` under the held input ``u`` from ``x0`` with steps of ``h`` (s) until the
-    armed guard crosses zero downwards, then apply ``tr.reset``: a step-to-step map.
+                     max_refine: int = 30, section: str = "post"):
+    """Flow ``tr.flow`` under the held input ``u`` with steps of ``h`` (s) until the armed guard
+    crosses zero downwards, with ``tr.reset``: a step-to-step map.
+
+    ``section="post"``: the map of the section just after the reset: flow from ``x0`` to the
+    event, then apply the reset there. ``section="pre"``: the map of the section on the guard,
+    just before the reset: apply the reset to ``x0`` (a state at an event), then flow from the
+    reset state to the next event (the state there is the map's value; its reset is the next
+    step's).
 
     ``locate="secant"``: :func:`bipedlab.sim.events.flow_to_event` (RK4, the crossing located by
     secant iterations to ``tol`` in the guard's unit, event-time tangent included; ``integrand``
@@ -206,8 +213,14 @@ def flow_until_event(tr: Transition, x0, u, h: float, max_time: float, integrand
 
     ``fell(x) -> bool`` ends the flow with status FELL; so does ``max_time`` (s) without an
     event. Returns (:class:`~bipedlab.sim.events.StepResult` at the event, the reset state,
-    the reset's info); where the status is not OK the reset state is the event state and the
-    info zeros."""
+    the reset's info). With ``section="post"`` the reset is the event's, and where the status
+    is not OK the reset state is the event state and the info zeros; with ``section="pre"`` it
+    is the reset of ``x0`` the flow started from."""
+    if section not in ("post", "pre"):
+        raise ValueError(f"flow_until_event: unknown section {section!r}; choose 'post' or 'pre'")
+    if section == "pre":
+        x_start, info_start = tr.reset(x0)
+        x0 = jnp.asarray(x_start, jnp.asarray(x0).dtype)
     if locate == "secant":
         r = flow_to_event(lambda z: tr.flow(z, u), tr.guard, tr.armed, x0, h, max_time, integrand, fell, tol,
                           max_refine)
@@ -217,6 +230,8 @@ def flow_until_event(tr: Transition, x0, u, h: float, max_time: float, integrand
         r = _flow_linear(tr, x0, u, h, int(round(max_time / h)), fell)
     else:
         raise ValueError(f"flow_until_event: unknown locate {locate!r}; choose 'secant' or 'linear'")
+    if section == "pre":
+        return r, x0, info_start
     xp, info = tr.reset(r.z)
     ok = r.status == OK
     info0 = _zeros_like_shape(jax.eval_shape(lambda z: tr.reset(z)[1], r.z))

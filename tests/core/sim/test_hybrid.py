@@ -245,3 +245,18 @@ def test_step_to_guard_closes_a_flow_at_its_event_with_the_exact_derivative():
     assert dt == pytest.approx(1.0 / np.sqrt(v0**2 + 2 * G * y0), rel=1e-10)
     with pytest.raises(ValueError, match="method"):
         hybrid.step_to_guard(flow, 0.0, jnp.stack([y0, v0]), guard, 0.0, method="bisection")
+
+
+def test_flow_until_event_on_the_section_before_the_reset():
+    """section="pre": the ball at an impact is bounced first, then flown to the next impact
+    (the map of the pre-impact section); the reset reported is the one it started with."""
+    v = 2.0
+    r, xp, info = jax.jit(lambda x: hybrid.flow_until_event(_ball(), x, None, 0.01, 5.0, section="pre"))(
+        jnp.array([0.0, -v]))
+    assert int(r.status) == OK
+    assert float(r.t) == pytest.approx(2.0 * E * v / G, abs=1e-10)
+    np.testing.assert_allclose(np.asarray(r.z), [0.0, -E * v], atol=1e-10)
+    np.testing.assert_allclose(np.asarray(xp), [0.0, E * v], atol=0)
+    assert float(info) == v
+    with pytest.raises(ValueError, match="section"):
+        hybrid.flow_until_event(_ball(), jnp.array([0.0, -v]), None, 0.01, 5.0, section="mid")

@@ -1,10 +1,11 @@
 """One passive step of the compass gait, its Poincaré return map and the period-one gait.
 
 Section: the post-impact state (just after the leg swap), ``x = [theta, psi, thetadot,
-psidot]`` in the stance coordinates of :mod:`.model` (rad, rad/s). One step flows the stance
-dynamics with the core's event locator :func:`bipedlab.sim.events.flow_to_event` (RK4 with
-step ``H`` and secant location of the guard, forward-mode differentiable including the event
-time), then applies the plastic impact and the swap. Images of the map lie on the guard
+psidot]`` in the stance coordinates of :mod:`.model` (rad, rad/s). One step is the core's hybrid
+stage :func:`bipedlab.sim.hybrid.flow_until_event` on :func:`transition`: the stance dynamics
+flowed by RK4 with step ``H`` to the heel strike, located by secant iterations
+(forward-mode differentiable including the event time), and the reset, the plastic impact
+and the swap. Images of the map lie on the guard
 (a 3-dimensional surface), so one eigenvalue of the 4x4 Jacobian is zero at the fixed point.
 """
 from __future__ import annotations
@@ -16,9 +17,8 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.gait import poincare
-from bipedlab.sim import OK
+from bipedlab.sim import OK, hybrid
 from bipedlab.pytree import pytree
-from bipedlab.sim.events import flow_to_event
 
 from bipedlab.robots.compass_gait import model as cg
 
@@ -53,11 +53,25 @@ _flow, _guard, _armed, _fell, _reset, _energy = (
     jax.jit(f) for f in (cg.flow, cg.guard, cg.armed, cg.fell, cg.reset, cg.energy))
 
 
+def _impact(p, z):
+    z_plus, impulse, vec, _ = _reset(p, z)
+    return z_plus, (impulse, vec)
+
+
+def transition(p: cg.CompassGaitParams) -> hybrid.Transition:
+    """The heel strike as a :class:`bipedlab.sim.hybrid.Transition`: the passive stance flow
+    (no input), the swing foot's height above the slope as the guard, armed once the swing
+    foot is ahead, and the reset (impact and swap) reporting (impulse (2,) N s, step vector
+    (2,) m)."""
+    return hybrid.Transition(flow=lambda z, u: _flow(p, z), guard=lambda z: _guard(p, z),
+                             armed=lambda z: _armed(p, z), reset=lambda z: _impact(p, z))
+
+
 def step(p: cg.CompassGaitParams, z0, h: float = H) -> Step:
-    """Flow from the post-impact state z0 to the next heel strike and reset it."""
-    r = flow_to_event(lambda z: _flow(p, z), lambda z: _guard(p, z), lambda z: _armed(p, z),
-                      z0, h, MAX_TIME, fell=lambda z: _fell(p, z))
-    z_plus, impulse, vec, _ = _reset(p, r.z)
+    """Flow from the post-impact state z0 to the next heel strike and reset it (where the step
+    falls, the state stays the pre-impact one and the impulse and step vector are zeros)."""
+    r, z_plus, (impulse, vec) = hybrid.flow_until_event(transition(p), z0, None, h, MAX_TIME,
+                                                        fell=lambda z: _fell(p, z))
     ke_minus = _energy(p, r.z)[0]
     ke_plus = _energy(p, z_plus)[0]  # the new stance foot is pinned after the swap
     return Step(z_plus, r.z, r.t, vec, impulse, ke_minus, ke_plus, r.status)
