@@ -181,14 +181,13 @@ LOW_LEVEL_LOCATORS = re.compile(r"regula_falsi\w*|bisection\w*|newton|first_on_g
 #: robot modules that still integrate, locate and reset by hand (not yet on bipedlab.sim.hybrid)
 #: or loop with lax.while_loop for another reason; each entry is checked to still need it
 HYBRID_EXEMPT = {
-    "bipedlab.robots.seven_link.contact": "several contacts at once: a vector guard bisected inside its own "
-                                          "while_loop (sim.hybrid.substep takes a scalar guard)",
     "bipedlab.robots.seven_link.robustness": "a while_loop over control samples until a fall (no event "
                                              "located), written beside sim.loop",
 }
 #: drivers moved onto the core's hybrid step
 HYBRID_PORTED = ["bipedlab.robots.mabel.walking.loop", "bipedlab.robots.atrias.slip_run",
-                 "bipedlab.robots.mabel.walking.poincare"]
+                 "bipedlab.robots.mabel.walking.poincare", "bipedlab.robots.compass_gait.walker",
+                 "bipedlab.robots.seven_link.contact"]
 
 
 def _event_loop_uses(source: str) -> list[str]:

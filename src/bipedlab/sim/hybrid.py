@@ -31,6 +31,13 @@ Stages:
   by :func:`bipedlab.sim.events.flow_to_event` (secant iterations to a tolerance), or, with ``locate="linear"``, the state is linearly
   interpolated between the two integration steps around the crossing (first order in the step;
   kept for results recorded with it);
+* :func:`flow_sample` - one sample interval of a :class:`MultiTransition`, a system with a
+  discrete state (an active set of contacts, anchors, counters) and a vector of guards
+  (several contacts at once): integrator steps of at most ``h``, each accepted one followed
+  by the transition's projection; a step that ends with any element past its guard is
+  bisected to ``tr.tol`` s, the reset applies at the bracket's far end, and the interval goes
+  on from there, so any number of events happen in one sample. One compiled
+  ``lax.while_loop`` holds one call of the integrator, of the projection and of the reset.
 * :func:`step_to_guard` - one integrator step in an independent variable (a phase variable
   the flow is written in, or time) from a point near the event, of the length where a smooth
   guard of (variable, state) vanishes: the closing step of a flow integrated on fixed nodes
@@ -60,7 +67,8 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.pytree import pytree, static_field
-from bipedlab.sim.events import StepResult, bisection, first_on_grid, flow_to_event, linear_crossing, newton
+from bipedlab.sim.events import (StepResult, bisection, bisection_step, first_on_grid, flow_to_event,
+                                 linear_crossing, newton)
 from bipedlab.sim.integrators import rk4, rk4_t_scan
 from bipedlab.sim.rollout import FELL, NONFINITE, OK
 
@@ -99,6 +107,102 @@ class Event:
     event: jax.Array
     fraction: jax.Array
     info: Any
+
+
+def _keep(x, d):
+    return x, d
+
+
+@pytree
+class MultiTransition:
+    """Transitions of a system with a discrete state ``d`` (any pytree: an active set, contact
+    anchors, records of what happened) held over the flow, and several guards at once:
+
+    * ``flow(x, u, d) -> xdot``, the continuous dynamics in mode ``d`` under the held input u;
+    * ``guard(x, d) -> (k,) bool``: the elements past their guard (e.g. an inactive contact
+      point below the ground by more than a tolerance); an event is any of them;
+    * ``reset(x, d, crossed) -> (x_plus, d_plus)`` at the located state, ``crossed`` the
+      elements past their guard there (e.g. a plastic impact over the new active set);
+    * ``project(x, d) -> (x, d)``: applied after every step accepted without an event (e.g.
+      back onto the active constraints; ``d`` may record the drift); default none;
+    * ``integrator(f, x, u, h)`` (default RK4), ``tol``: the width in s to which an event is
+      bisected, ``max_iterations``: loop iterations per sample (steps, halvings, events)
+      before the sample counts as unresolved."""
+
+    flow: Callable = static_field()
+    guard: Callable = static_field()
+    reset: Callable = static_field()
+    project: Callable = static_field(_keep)
+    integrator: Callable = static_field(rk4)
+    tol: float = static_field(1e-10)
+    max_iterations: int = static_field(400)
+
+
+@pytree
+class Sampled:
+    """What :func:`flow_sample` saw over its interval: ``events`` (int32) the resets applied,
+    ``crossed`` (k,) bool the elements that crossed at any of them, ``finite`` whether every
+    integrated state was finite, ``resolved`` whether the interval was completed within
+    ``max_iterations``."""
+
+    events: jax.Array
+    crossed: jax.Array
+    finite: jax.Array
+    resolved: jax.Array
+
+
+#: time left in an interval (s) below which it is complete
+_INTERVAL_END = 1e-13
+
+
+def flow_sample(tr: MultiTransition, x, d, u, t0, duration, h):
+    """The interval [t0, t0 + duration] (s) from (x, d) under the held input u, with every event
+    in it (see :class:`MultiTransition`).
+
+    Each loop iteration is one integrator step from the current state: a step of
+    ``min(h, time left)``, or while an event is being located, to the midpoint of the bracket.
+    A full step with no element past its guard is accepted and projected; one with any opens
+    the bracket [0, step] on the time since the current state, halved
+    (:func:`bipedlab.sim.events.bisection_step`) until narrower than ``tr.tol``; then
+    ``tr.reset`` applies at the state of the bracket's far end with the elements past their
+    guard there, time advances by that end, and the interval goes on from the reset state.
+    A non-finite state ends the interval. Returns (x, d, :class:`Sampled`)."""
+    x = jnp.asarray(x)
+    t_end = t0 + duration
+    zero = jnp.zeros((), x.dtype)
+    k = jax.eval_shape(tr.guard, x, d).shape
+
+    def cond(c):
+        return ~c[-1] & (c[7] < tr.max_iterations)
+
+    def body(c):
+        t, x, xh, d, mode, lo, hi, it, n_ev, crossed, finite_all, done = c
+        tau = jnp.where(mode == 0, jnp.minimum(t_end - t, h), 0.5 * (lo + hi))
+        x1 = tr.integrator(lambda z, v: tr.flow(z, v, d), x, u, tau)
+        any_hit = jnp.any(tr.guard(x1, d))
+        finite = jnp.all(jnp.isfinite(x1))
+        accept = (mode == 0) & ~any_hit
+        # bracket [lo, hi] on the time since t: no element past its guard at lo, some at hi
+        # (state xh); a crossing in a full step opens [0, tau]
+        b_lo, b_hi = bisection_step(any_hit, lo, hi, tau)
+        lo_n = jnp.where(mode == 0, 0.0, b_lo)
+        hi_n = jnp.where(mode == 0, jnp.where(any_hit, tau, hi), b_hi)
+        xh = jnp.where(any_hit, x1, xh)
+        located = (mode == 1) & (hi_n - lo_n < tr.tol)
+        new = tr.guard(xh, d)
+        # accepted and located are exclusive: one branch keeps, projects or resets
+        which = jnp.where(accept & finite, 1, jnp.where(located & finite, 2, 0))
+        x_n, d_n = jax.lax.switch(which, (lambda: (x, d), lambda: tr.project(x1, d), lambda: tr.reset(xh, d, new)))
+        t_n = jnp.where(accept, t + tau, jnp.where(located, t + hi_n, t))
+        mode_n = jnp.where(located | accept, 0, 1)
+        done = (accept & (t_end - t_n <= _INTERVAL_END)) | ~finite
+        return (t_n, x_n, xh, d_n, mode_n, lo_n, hi_n, it + 1, n_ev + located.astype(jnp.int32),
+                crossed | (new & located), finite_all & finite, done)
+
+    init = (jnp.asarray(t0, x.dtype), x, x, d, jnp.asarray(0), zero, zero, jnp.asarray(0), jnp.asarray(0, jnp.int32),
+            jnp.zeros(k, bool), jnp.asarray(True), jnp.asarray(False))
+    _, x, _, d, *_, n_ev, crossed, finite, done = jax.lax.while_loop(cond, body, init)
+    return x, d, Sampled(events=n_ev, crossed=crossed, finite=finite, resolved=done)
 
 
 def _where(c, a, b):
@@ -298,4 +402,5 @@ def first_event_time(guard_at: Callable, t_max: float, n: int, t_min: float = 0.
     return hi, found
 
 
-__all__ = ["Event", "Transition", "first_event_time", "flow_until_event", "step_to_guard", "substep"]
+__all__ = ["Event", "MultiTransition", "Sampled", "Transition", "first_event_time", "flow_sample",
+           "flow_until_event", "step_to_guard", "substep"]

@@ -260,3 +260,52 @@ def test_flow_until_event_on_the_section_before_the_reset():
     assert float(info) == v
     with pytest.raises(ValueError, match="section"):
         hybrid.flow_until_event(_ball(), jnp.array([0.0, -v]), None, 0.01, 5.0, section="mid")
+
+
+def _two_balls(tol=1e-12):
+    """Two balls in free fall, state (y1, v1, y2, v2); each bounces when below the ground
+    moving down; the discrete state counts the bounces of each and the accepted steps."""
+    def flow(x, u, d):
+        return jnp.stack([x[1], -G + 0.0 * x[0], x[3], -G + 0.0 * x[2]])
+
+    def guard(x, d):
+        return (x[0::2] < -1e-15) & (x[1::2] < 0.0)
+
+    def reset(x, d, crossed):
+        v = jnp.where(crossed, -E * x[1::2], x[1::2])
+        return x.at[1::2].set(v), dict(d, bounces=d["bounces"] + crossed.astype(jnp.int32))
+
+    def project(x, d):
+        return x, dict(d, steps=d["steps"] + 1)
+
+    return hybrid.MultiTransition(flow=flow, guard=guard, reset=reset, project=project, tol=tol)
+
+
+def test_flow_sample_resolves_several_events_in_one_interval():
+    """Both balls bounce inside one 50 ms interval of 10 ms steps, at different times; the state
+    at its end is the closed form's to the bisection's tolerance, each reset applied once."""
+    x0 = jnp.array([0.01, -1.0, 0.02, -0.5])
+    d0 = dict(bounces=jnp.zeros(2, jnp.int32), steps=jnp.asarray(0))
+    T, h = 0.05, 0.01
+    x, d, seen = jax.jit(lambda x, d: hybrid.flow_sample(_two_balls(), x, d, None, 0.0, T, h))(x0, d0)
+    assert bool(seen.resolved) and bool(seen.finite)
+    assert int(seen.events) == 2 and [bool(c) for c in seen.crossed] == [True, True]
+    assert [int(b) for b in d["bounces"]] == [1, 1]
+    # impacts at 9.6 and 30.7 ms: steps accepted to 19.6, 29.6, 40.7 ms and the remainder to 50 ms
+    assert int(d["steps"]) == 4
+    for i, (y0, v0) in enumerate([(0.01, -1.0), (0.02, -0.5)]):
+        t, _, after = _ball_oracle(y0, v0, T)
+        assert t < T
+        np.testing.assert_allclose(np.asarray(x[2 * i:2 * i + 2]), after, atol=1e-10)
+
+
+def test_flow_sample_without_events_and_unresolved():
+    """No event: the plain steps, each projected; too few iterations: not resolved."""
+    x0 = jnp.array([1.0, 0.0, 2.0, 0.0])
+    d0 = dict(bounces=jnp.zeros(2, jnp.int32), steps=jnp.asarray(0))
+    x, d, seen = hybrid.flow_sample(_two_balls(), x0, d0, None, 0.0, 0.05, 0.01)
+    assert bool(seen.resolved) and int(seen.events) == 0 and int(d["steps"]) == 5
+    np.testing.assert_allclose(np.asarray(x), [1.0 - 0.5 * G * 0.05**2, -G * 0.05, 2.0 - 0.5 * G * 0.05**2,
+                                               -G * 0.05], atol=1e-14)
+    _, _, seen = hybrid.flow_sample(_two_balls().replace(max_iterations=3), x0, d0, None, 0.0, 0.05, 0.01)
+    assert not bool(seen.resolved)

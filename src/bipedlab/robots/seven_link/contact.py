@@ -16,7 +16,8 @@ then the exact velocity projection): the drift before and after is measured and 
 (30 steps of the tuned walk: at most 1.3e-11 m and 6e-10 m/s before a projection, 4e-15 m and
 5e-16 m/s after).
 
-Events, all inside one compiled ``lax.while_loop``:
+Events, all inside one compiled loop (the core's hybrid stage
+:func:`bipedlab.sim.hybrid.flow_sample` on :func:`transition`):
 
 * guard: an inactive element's gap (a contact point's height, ``-phi_knee``) crosses below
   ``-gap_tol``; located by bisection on the sub-step to ``event_tol`` seconds;
@@ -42,7 +43,7 @@ import numpy as np
 from bipedlab.contact import rigid as aset
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.pytree import pytree
-from bipedlab.sim import events
+from bipedlab.sim import hybrid
 from bipedlab.sim.integrators import rk4
 from bipedlab.sim.loop import LoopState, SampledLoop
 from bipedlab.sim.loop import initial_state as loop_initial_state
@@ -370,78 +371,50 @@ def initial_plant(r: sl.SevenLink, x0, active0, nlog_c: int, S: Settings) -> Pla
                  log_ctrl=jnp.zeros((nl, nlog_c)), log_force=jnp.zeros((nl, N_ELEMENTS)))
 
 
+def transition(r: sl.SevenLink, S: Settings) -> hybrid.MultiTransition:
+    """The contacts as a :class:`bipedlab.sim.hybrid.MultiTransition` over the discrete state
+    ``d = dict(active (6,), anchors (4,), drift_before (2,), dke)``: the constrained flow with
+    the active set held; the guard: the inactive elements whose gap is below ``-S.gap_tol``;
+    the reset: anchors of the new contacts at their x, the plastic impact (:func:`impact`),
+    the projection onto the new active set, and the largest kinetic energy change so far
+    (``dke``); after every accepted step the projection (:func:`project`) with the largest drift
+    before it (``drift_before``, position and velocity)."""
+
+    def flow_(x, u, d):
+        return flow(r, x, u, d["active"])
+
+    def guard(x, d):
+        return ~d["active"] & (gaps(r, x[:9]) < -S.gap_tol)
+
+    def project_(x, d):
+        xp, res = project(r, x, d["active"], d["anchors"])
+        return xp, dict(d, drift_before=jnp.maximum(d["drift_before"], jnp.stack(res)))
+
+    def reset(x, d, new):
+        q = x[:9]
+        P = jnp.stack([sl.point_position(r, q, n) for n in sl.CONTACTS])
+        anchors = jnp.where(new[:4], P[:, 0], d["anchors"])
+        ke0 = sl.kinetic_energy(r, q, x[9:])
+        xe, _, act = impact(r, x, d["active"], new)
+        xe, _ = project(r, xe, act, anchors)
+        ke1 = sl.kinetic_energy(r, xe[:9], xe[9:])
+        return xe, dict(d, active=act, anchors=anchors, dke=jnp.maximum(d["dke"], ke1 - ke0))
+
+    return hybrid.MultiTransition(flow=flow_, guard=guard, reset=reset, project=project_, tol=S.event_tol,
+                                  max_iterations=400)
+
+
 def integrate(r: sl.SevenLink, S: Settings, t0, x, u, active, anchors, stats):
     """One sample interval [t0, t0 + S.sample] under the held u, with event location and
-    impacts, all in one ``lax.while_loop``: RK4 sub-steps of ``S.sample / S.substeps`` (each
-    accepted one projected onto the active constraints); a sub-step that crosses a guard is
-    bisected (:func:`bipedlab.sim.events.bisection_step`, one halving per iteration, sharing
-    the iteration's RK4 step) to ``S.event_tol`` s, then the impact applies.
-    Returns (t_end, x, active, anchors, stats)."""
-    h_int = S.sample / S.substeps
-    t_end = t0 + S.sample
-    zero = jnp.zeros((), jnp.float64)
-
-    def guard_hit(x, active):
-        g = gaps(r, x[:9])
-        return ~active & (g < -S.gap_tol)
-
-    def cond(c):
-        return ~c[-1] & (c[-2] < 400)
-
-    def body(c):
-        t, x, xh, active, anchors, stats, mode, lo, hi, it, done = c
-        rem = t_end - t
-        tau = jnp.where(mode == 0, jnp.minimum(rem, h_int), 0.5 * (lo + hi))
-        x1 = step(r, x, u, active, tau)
-        hit = guard_hit(x1, active)
-        any_hit = jnp.any(hit)
-        finite = jnp.all(jnp.isfinite(x1))
-        accept = (mode == 0) & ~any_hit
-        # bisection bracket [lo, hi]: no crossing at lo, a crossing at hi (state xh); a
-        # crossing in a full sub-step opens the bracket [0, tau]
-        b_lo, b_hi = events.bisection_step(any_hit, lo, hi, tau)
-        lo_n = jnp.where(mode == 0, 0.0, b_lo)
-        hi_n = jnp.where(mode == 0, jnp.where(any_hit, tau, hi), b_hi)
-        xh = jnp.where(any_hit, x1, xh)
-        located = (mode == 1) & (hi_n - lo_n < S.event_tol)
-        new = guard_hit(xh, active)
-
-        def do_accept(_):
-            xp, res = project(r, x1, active, anchors)
-            return xp, jnp.stack(res)
-
-        xp, res = jax.lax.cond(accept & finite, do_accept, lambda _: (x, jnp.zeros(2)), None)
-
-        def do_event(_):
-            q = xh[:9]
-            P = jnp.stack([sl.point_position(r, q, n) for n in sl.CONTACTS])
-            anchors_n = jnp.where(new[:4], P[:, 0], anchors)
-            ke0 = sl.kinetic_energy(r, q, xh[9:])
-            xe, imp, act = impact(r, xh, active, new)
-            xe, _ = project(r, xe, act, anchors_n)
-            ke1 = sl.kinetic_energy(r, xe[:9], xe[9:])
-            return xe, act, anchors_n, ke1 - ke0
-
-        xe, act_e, anch_e, dke = jax.lax.cond(located & finite, do_event,
-                                              lambda _: (x, active, anchors, zero), None)
-        st = dict(stats)
-        st["drift_before"] = jnp.where(accept, jnp.maximum(stats["drift_before"], res), stats["drift_before"])
-        st["dke"] = jnp.where(located, jnp.maximum(stats["dke"], dke), stats["dke"])
-        st["events"] = stats["events"] + located.astype(jnp.int32)
-        st["new"] = stats["new"] | (new & located)
-        st["nonfinite"] = stats["nonfinite"] | ~finite
-        t_n = jnp.where(accept, t + tau, jnp.where(located, t + hi_n, t))
-        x_n = jnp.where(accept, xp, jnp.where(located, xe, x))
-        act_n = jnp.where(located, act_e, active)
-        anch_n = jnp.where(located, anch_e, anchors)
-        mode_n = jnp.where(located | accept, 0, 1)
-        done = (accept & (t_end - t_n <= 1e-13)) | ~finite
-        return (t_n, x_n, xh, act_n, anch_n, st, mode_n, lo_n, hi_n, it + 1, done)
-
-    init = (t0, x, x, active, anchors, stats, jnp.asarray(0), zero, zero, jnp.asarray(0), jnp.asarray(False))
-    t, x, _, active, anchors, stats, *_, done = jax.lax.while_loop(cond, body, init)
-    stats = dict(stats, stuck=~done)
-    return t_end, x, active, anchors, stats
+    impacts: the core's :func:`bipedlab.sim.hybrid.flow_sample` on :func:`transition`, RK4
+    sub-steps of ``S.sample / S.substeps`` (each accepted one projected onto the active
+    constraints); a sub-step that crosses a guard is bisected to ``S.event_tol`` s, then the
+    impact applies. Returns (t_end, x, active, anchors, stats)."""
+    d = dict(active=active, anchors=anchors, drift_before=stats["drift_before"], dke=stats["dke"])
+    x, d, seen = hybrid.flow_sample(transition(r, S), x, d, u, t0, S.sample, S.sample / S.substeps)
+    stats = dict(stats, drift_before=d["drift_before"], dke=d["dke"], events=stats["events"] + seen.events,
+                 new=stats["new"] | seen.crossed, nonfinite=stats["nonfinite"] | ~seen.finite, stuck=~seen.resolved)
+    return t0 + S.sample, x, d["active"], d["anchors"], stats
 
 
 def plant_sample(r: sl.SevenLink, S: Settings, c: Plant, u, ctrl_log) -> Plant:
