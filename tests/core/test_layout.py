@@ -180,10 +180,7 @@ def test_one_container_idiom():
 LOW_LEVEL_LOCATORS = re.compile(r"regula_falsi\w*|bisection\w*|newton|first_on_grid|linear_crossing")
 #: robot modules that still integrate, locate and reset by hand (not yet on bipedlab.sim.hybrid)
 #: or loop with lax.while_loop for another reason; each entry is checked to still need it
-HYBRID_EXEMPT = {
-    "bipedlab.robots.seven_link.robustness": "a while_loop over control samples until a fall (no event "
-                                             "located), written beside sim.loop",
-}
+HYBRID_EXEMPT: dict[str, str] = {}
 #: drivers moved onto the core's hybrid step
 HYBRID_PORTED = ["bipedlab.robots.mabel.walking.loop", "bipedlab.robots.atrias.slip_run",
                  "bipedlab.robots.mabel.walking.poincare", "bipedlab.robots.compass_gait.walker",

@@ -18,9 +18,10 @@ A sample of period ``T = loop.sample_time`` runs, as named stages:
    ``failed_at`` (the sample index); compiled code never raises;
 6. ``log(params, x_before, y, u, x, ctrl_state) -> pytree`` (optional): one row per sample.
 
-:func:`run` scans ``n`` samples in one compiled program (pure, jit/vmap-able), :func:`simulate`
-drives it from the host in compiled chunks until a stop condition (steps reached, a fall),
-with progress, and :func:`batched` vmaps over initial states and parameters and shards the
+:func:`run` scans ``n`` samples in one compiled program (pure, jit/vmap-able), :func:`run_until`
+repeats such chunks inside the program while a traced condition holds (each trial of a batch
+until it has stopped), :func:`simulate` drives it from the host in compiled chunks until a stop
+condition (steps reached, a fall), with progress, and :func:`batched` vmaps over initial states and parameters and shards the
 batch over the devices.
 """
 from __future__ import annotations
@@ -137,6 +138,15 @@ def sample(loop: SampledLoop, params, s: LoopState):
 def run(loop: SampledLoop, params, s0: LoopState, n: int):
     """``n`` samples in one ``lax.scan``: (final state, logs stacked over samples)."""
     return jax.lax.scan(lambda s, _: sample(loop, params, s), s0, None, length=n)
+
+
+def run_until(loop: SampledLoop, params, s0: LoopState, chunk: int, going: Callable, max_samples: int):
+    """Chunks of ``chunk`` samples (:func:`run`, logs dropped) in one compiled ``lax.while_loop``
+    while ``going(state)`` holds and fewer than ``max_samples`` samples have run (the check
+    between chunks, so up to ``chunk - 1`` samples more): the in-program counterpart of
+    :func:`simulate`'s host loop, for a vmapped batch whose trials stop at different samples.
+    Returns the final state."""
+    return jax.lax.while_loop(lambda s: going(s) & (s.k < max_samples), lambda s: run(loop, params, s, chunk)[0], s0)
 
 
 _RUNNERS: dict = {}

@@ -49,3 +49,20 @@ def test_initial_state_has_no_weak_types():
             if jax.typeof(a).weak_type]
     assert weak == []
     assert np.asarray(s0.sensor).dtype == np.asarray(jnp.asarray(-1)).dtype
+
+
+def test_run_until_stops_between_chunks_inside_the_program():
+    """run_until: chunks until the condition fails (checked between chunks) or the sample bound;
+    the same state as the chunks run one by one, for each row of a vmapped batch."""
+    loop = _oscillator_loop()
+    s0 = sl.initial_state(jnp.array([1.0, 0.0]), jnp.asarray(-1), jnp.asarray(0.0), 0.0)
+    going = lambda s: s.x[0] > 0.5  # noqa: E731
+    s = jax.jit(lambda p, s: sl.run_until(loop, p, s, 10, going, 200))(4.0, s0)
+    ref = s0
+    while bool(going(ref)) and int(ref.k) < 200:
+        ref = sl.run(loop, 4.0, ref, 10)[0]
+    assert int(s.k) == int(ref.k) and 0 < int(s.k) < 200 and int(s.k) % 10 == 0
+    np.testing.assert_array_equal(np.asarray(s.x), np.asarray(ref.x))
+    assert int(jax.jit(lambda p, s: sl.run_until(loop, p, s, 10, lambda s: s.k >= 0, 30))(4.0, s0).k) == 30
+    ks = jax.vmap(lambda p: sl.run_until(loop, p, s0, 10, going, 200).k)(jnp.array([1.0, 4.0, 9.0]))
+    assert len(set(int(k) for k in ks)) > 1

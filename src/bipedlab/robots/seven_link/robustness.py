@@ -4,8 +4,8 @@ of the starting speed and posture.
 Each trial starts from the walking study's initial posture (:func:`.study.initial_condition`)
 with the hip velocity guess scaled by ``1 + speed_change`` and the body pitched by
 ``body_offset`` degrees, and walks the closed loop of ``walk seven-link`` (the
-:func:`.contact.closed_loop` on :func:`bipedlab.sim.loop.run`, the simulator's own
-sample bound) until ``--steps`` touchdowns; it survives when it gets there without a fall.
+:func:`.contact.closed_loop` in chunks of :func:`bipedlab.sim.loop.run_until`, the simulator's
+own sample bound) until ``--steps`` touchdowns; it survives when it gets there without a fall.
 """
 from __future__ import annotations
 
@@ -18,7 +18,6 @@ CHUNK = 100  # samples per loop chunk between the checks whether the batch has s
 
 def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, max_body_deg: float = 10.0,
           bins: int = 6):
-    import jax
     import jax.numpy as jnp
 
     from bipedlab import robustness as rb
@@ -41,10 +40,9 @@ def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, 
         x0, _ = ss.initial_condition(r, ss.START_SPEED * (1.0 + q["speed_change"]))
         x0 = x0.at[2].add(jnp.deg2rad(q["body_offset"]))
         s0 = sl.initial_state(sc.initial_plant(r, x0, a0, nlog_c, settings), None, ctl.initial_state(x0))
-        # chunks of the loop until every trial of the batch has stopped (steps reached or fallen),
-        # as the study's own simulate stops; the bound is the study's sample count
-        s = jax.lax.while_loop(lambda s: sc.running(settings, s.x) & (s.k < settings.n_samples),
-                               lambda s: sl.run(loop, p, s, CHUNK)[0], s0)
+        # chunks of the loop until the trial has stopped (steps reached or fallen), as the study's
+        # own simulate stops; the bound is the study's sample count
+        s = sl.run_until(loop, p, s0, CHUNK, lambda s: sc.running(settings, s.x), settings.n_samples)
         pl = s.x
         reached = (pl.status == sc.OK) & (pl.ntd >= steps)
         status = jnp.where(reached, sl.OK, jnp.where(pl.status == sc.NONFINITE, sl.NONFINITE, sl.FELL))
