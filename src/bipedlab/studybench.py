@@ -17,7 +17,7 @@ compilation cache (cold), then again with the cache the first run filled (warm).
   bodies, branches, inner jits) with its count: the size of what XLA has to compile;
 * ``slowest_programs``: the five programs that took longest to compile or load, with their
   seconds and equations;
-* ``peak_rss_mb``: the process's peak resident memory (``getrusage``).
+* ``peak_rss_mb``: the study process's own peak resident memory (``VmHWM``).
 
 Nothing here names a robot: the studies are whatever the registered commands declare.
 """
@@ -123,7 +123,6 @@ def child(stats_path: str, argv: list[str]) -> int:
     the figures of the module docstring to ``stats_path`` (JSON). Returns the command's exit
     status."""
     t0 = time.perf_counter()
-    import resource
 
     import jax
     from jax import monitoring
@@ -165,13 +164,29 @@ def child(stats_path: str, argv: list[str]) -> int:
         exit_status=code, wall_s=wall, import_s=t_import, compile_s=compile_s, run_s=wall - compile_s,
         trace_s=durations[_TRACE], lower_s=durations[_LOWER], backend_compile_s=durations[_BACKEND],
         programs_compiled=counts[_BACKEND] - counts[_CACHE_HIT], programs_from_cache=counts[_CACHE_HIT],
-        peak_rss_mb=resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0,
+        peak_rss_mb=_peak_rss_mb(),
         jax_version=jax.__version__,
         **_program_figures(compiles, sizes),
     )
     with open(stats_path, "w") as f:
         outputs.dump_json(rec, f)
     return code
+
+
+def _peak_rss_mb() -> float:
+    """This process's own peak resident memory (MB): the high-water mark of its address space
+    (``VmHWM``). ``getrusage``'s ``ru_maxrss`` survives fork and exec, so a study launched from a
+    large process (a test worker) would report the launcher's memory instead of its own."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("VmHWM:"):
+                    return float(line.split()[1]) / 1024.0
+    except OSError:
+        pass
+    import resource
+
+    return resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024.0
 
 
 def _program_figures(compiles: list, sizes: list) -> dict:

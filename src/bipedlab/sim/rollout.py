@@ -27,7 +27,7 @@ class RolloutSpec:
     record: keep the state after every control step (else only the final state);
     compact: the program holds the flow once (the substeps a loop, RK4's four stages a scan
     over one traced flow, :func:`~bipedlab.sim.integrators.rk4_scan`) instead of once per
-    stage and substep: the five-link standing rollout compiles in 2-4 s instead of 18-22 s
+    stage and substep: a planar biped's standing rollout compiles in 2-4 s instead of 18-22 s
     and runs as fast (``bipedlab bench``); same numbers up to the contraction of multiply-adds."""
 
     dt: float = 2.5e-4
