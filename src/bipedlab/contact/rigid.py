@@ -168,13 +168,20 @@ def constraint_residual(g, A, qd, mask):
 def project_state(constraint_fn, q, qd, mask, newton: int = 2):
     """(q, qd) projected onto the active rows - ``newton`` M-weighted Newton steps on the
     positions (:func:`project_position`), then the exact velocity projection - and the
-    residual (position, velocity) before. ``constraint_fn(q, qd) -> (M, g, A)``."""
-    res0 = None
-    for k in range(newton):
+    residual (position, velocity) before. ``constraint_fn(q, qd) -> (M, g, A)``.
+
+    The ``newton + 1`` evaluations of ``constraint_fn`` are one loop whose body holds it once
+    (a Newton step, or on the last pass the velocity projection), so a program holds the
+    constraint kinematics once however many steps are taken."""
+    def body(k, carry):
+        q, qd, res = carry
         M, g, A = constraint_fn(q, qd)
-        if k == 0:
-            res0 = constraint_residual(g, A, qd, mask)
-        q = q + project_position(M, A, g, mask)
-    M, _, A = constraint_fn(q, qd)
-    qd, _ = project_velocity(M, A, qd, mask)
+        res = jax.tree.map(lambda a, b: jnp.where(k == 0, a, b), constraint_residual(g, A, qd, mask), res)
+        last = k == newton
+        qd_last, _ = project_velocity(M, A, qd, mask)
+        q = jnp.where(last, q, q + project_position(M, A, g, mask))
+        return q, jnp.where(last, qd_last, qd), res
+
+    zero = jnp.zeros((), jnp.result_type(q))
+    q, qd, res0 = jax.lax.fori_loop(0, newton + 1, body, (q, qd, (zero, zero)))
     return q, qd, res0

@@ -44,7 +44,7 @@ from bipedlab.contact import rigid as aset
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.pytree import pytree
 from bipedlab.sim import hybrid
-from bipedlab.sim.integrators import rk4
+from bipedlab.sim.integrators import rk4, rk4_scan
 from bipedlab.sim.loop import LoopState, SampledLoop
 from bipedlab.sim.loop import initial_state as loop_initial_state
 from bipedlab.sim.loop import simulate as loop_simulate
@@ -378,7 +378,8 @@ def transition(r: sl.SevenLink, S: Settings) -> hybrid.MultiTransition:
     the reset: anchors of the new contacts at their x, the plastic impact (:func:`impact`),
     the projection onto the new active set, and the largest kinetic energy change so far
     (``dke``); after every accepted step the projection (:func:`project`) with the largest drift
-    before it (``drift_before``, position and velocity)."""
+    before it (``drift_before``, position and velocity). RK4's four stages are one scan
+    (:func:`bipedlab.sim.integrators.rk4_scan`): the sample loop holds the contact solve once."""
 
     def flow_(x, u, d):
         return flow(r, x, u, d["active"])
@@ -401,7 +402,7 @@ def transition(r: sl.SevenLink, S: Settings) -> hybrid.MultiTransition:
         return xe, dict(d, active=act, anchors=anchors, dke=jnp.maximum(d["dke"], ke1 - ke0))
 
     return hybrid.MultiTransition(flow=flow_, guard=guard, reset=reset, project=project_, tol=S.event_tol,
-                                  max_iterations=400)
+                                  max_iterations=400, integrator=rk4_scan)
 
 
 def integrate(r: sl.SevenLink, S: Settings, t0, x, u, active, anchors, stats):
