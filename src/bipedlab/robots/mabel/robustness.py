@@ -177,7 +177,6 @@ def _walk_build(args, progress):
         ws.load_gait(args.gait)
     except ValueError as e:
         raise UsageError(str(e)) from None
-    progress("MABEL's walking loop compiles for several minutes")
     return walking_study(args.steps, args.controller, args.gait, args.max_force, args.perturb, args.noise,
                          args.sensing, args.bins)
 

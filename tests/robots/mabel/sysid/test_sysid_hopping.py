@@ -49,10 +49,13 @@ def test_rotor_cable_is_the_hopping_models_motor_equation():
         assert np.max(np.abs(sim - meas)) < 0.01 * stretch
 
 
+@pytest.mark.slow
 def test_hopping_fit_recovers_ground_and_spring_damping_from_noise_free_data():
     """Exact encoders and the estimator's own integrator: from 20 % off, the replay fit of the
     landing and stance brings the ground's stiffness and damping and the spring damping back
-    to the truth."""
+    to the truth. Slow (its own Jacobian program, about a minute to compile on two cores); by
+    default the identify command's test (tests/robots/mabel/sysid/test_sysid_cli.py) runs the
+    same fit on the quick design with noisy encoders and checks the spring damping identified."""
     truth = sysid.perturbed(0)
     e = sysid.hopping_experiment(truth, sysid.sensors.exact(), sysid.quick_design())
     free = ("spring_d", "ground_stiffness", "ground_damping")
