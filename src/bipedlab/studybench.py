@@ -90,10 +90,10 @@ class Study:
 
 def studies(commands=None) -> list[Study]:
     """The short studies declared by the registered commands, in listing order."""
-    from bipedlab import cli
+    from bipedlab import registry
 
     out = []
-    for c in commands if commands is not None else cli.commands():
+    for c in commands if commands is not None else registry.commands():
         words = [c.verb] + ([c.robot] if c.robot else [])
         for extra in c.bench:
             long = bool(extra) and extra[0] == "long"

@@ -11,7 +11,7 @@ import argparse
 import os
 import time
 
-from bipedlab.cli import Command, UsageError, add_out, int_in, text
+from bipedlab.commands import Command, UsageError, add_out, int_in, text
 
 DEFAULT_OUT = "bipedlab-report"
 

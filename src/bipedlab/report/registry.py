@@ -1,6 +1,6 @@
 """Finding the papers: every robot package's ``reproduce`` module lists its :class:`Paper`s.
 
-Found like the commands (:func:`bipedlab.cli.robot_cli_modules`): ``pkgutil.iter_modules`` over
+Found like the commands (:func:`bipedlab.registry.robot_cli_modules`): ``pkgutil.iter_modules`` over
 ``bipedlab.robots``, importing ``bipedlab.robots.<name>.reproduce`` where it exists. The
 modules import their studies only when an experiment runs, so listing papers is fast.
 """

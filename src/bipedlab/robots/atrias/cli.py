@@ -1,11 +1,11 @@
 """The ATRIAS-like biped's command: ``bipedlab run atrias`` (registered with
-:mod:`bipedlab.cli`; the study module is imported inside ``run``)."""
+:mod:`bipedlab.registry`; the study module is imported inside ``run``)."""
 from __future__ import annotations
 
 import argparse
 import math
 
-from bipedlab.cli import SEED, Command, UsageError, add_out, float_in, int_in
+from bipedlab.commands import SEED, Command, UsageError, add_out, float_in, int_in
 
 #: the controller-model parameters --model-error may scale (the study's MODEL_ERRORS)
 MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")

@@ -10,7 +10,7 @@ without a fall; ``completed`` is the metres run before the fall.
 """
 from __future__ import annotations
 
-from bipedlab.cli import float_in, int_in
+from bipedlab.commands import float_in, int_in
 from bipedlab.robustness import options
 
 ROBOT = "atrias"

@@ -1,10 +1,10 @@
 """The compass-gait walker's command: ``bipedlab walk compass-gait`` (registered with
-:mod:`bipedlab.cli`; :mod:`bipedlab.robots.compass_gait.study` is imported inside ``run``).
+:mod:`bipedlab.registry`; :mod:`bipedlab.robots.compass_gait.study` is imported inside ``run``).
 The options are those of the study's ``add_arguments`` (same names, defaults and metavars),
 with the step count and the displacement checked here."""
 from __future__ import annotations
 
-from bipedlab.cli import SEED, Command, add_out, float_in, int_in
+from bipedlab.commands import SEED, Command, add_out, float_in, int_in
 
 
 def _walk_arguments(p) -> None:

@@ -1,11 +1,11 @@
 """The five-link biped's commands: ``bipedlab bench``, ``bipedlab optimize five-link`` and
-``bipedlab walk five-link`` (registered with :mod:`bipedlab.cli`; study modules are imported
+``bipedlab walk five-link`` (registered with :mod:`bipedlab.registry`; study modules are imported
 inside ``run``)."""
 from __future__ import annotations
 
 import os
 
-from bipedlab.cli import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
+from bipedlab.commands import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
 
 ROBOT = "five-link"
 CONTROLLERS = ["iolin", "pd"]

@@ -9,7 +9,7 @@ the loop of ``walk five-link``). A trial survives when every step ends in a touc
 """
 from __future__ import annotations
 
-from bipedlab.cli import int_in
+from bipedlab.commands import int_in
 from bipedlab.robustness import options
 
 ROBOT = "five-link"

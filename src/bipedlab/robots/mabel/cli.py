@@ -1,5 +1,5 @@
 """MABEL's commands: ``bipedlab optimize|walk|experiment|hop|identify mabel`` (registered with
-:mod:`bipedlab.cli`; the walking, hopping and sysid study modules are imported inside
+:mod:`bipedlab.registry`; the walking, hopping and sysid study modules are imported inside
 ``run``)."""
 from __future__ import annotations
 
@@ -7,7 +7,7 @@ import argparse
 import math
 import os
 
-from bipedlab.cli import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
+from bipedlab.commands import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
 
 ROBOT = "mabel"
 EXPERIMENTS = ["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4",

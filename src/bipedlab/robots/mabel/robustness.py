@@ -11,7 +11,7 @@ initial-state perturbations of the joint rates and encoder noise (:func:`walking
 """
 from __future__ import annotations
 
-from bipedlab.cli import float_in, int_in
+from bipedlab.commands import float_in, int_in
 from bipedlab.robustness import options
 
 HOP_PERIOD_S = 0.7  # s per hop allowed, as the hopping study's runs
@@ -143,7 +143,7 @@ def walking_study(steps: int = 6, controller: str = "decentralized", gait: str =
 
 
 def _walk_options(p) -> None:
-    from bipedlab.cli import text
+    from bipedlab.commands import text
 
     p.add_argument("--steps", type=int_in(PUSH_STEP + 1, 200), default=6,
                    help=f"nominal step periods a trial walks (default 6; the push is in step {PUSH_STEP})")
@@ -163,14 +163,14 @@ def _walk_options(p) -> None:
 def _walk_check(args) -> None:
     import os
 
-    from bipedlab.cli import UsageError
+    from bipedlab.commands import UsageError
 
     if args.gait not in ("nominal", "efficient", "fast") and not os.path.isfile(args.gait):
         raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait (nominal, efficient, fast) nor a file")
 
 
 def _walk_build(args, progress):
-    from bipedlab.cli import UsageError
+    from bipedlab.commands import UsageError
     from bipedlab.robots.mabel.walking import study as ws
 
     try:  # every field of the gait, before anything compiles

@@ -1,9 +1,9 @@
 """The seven-link biped's commands: ``bipedlab walk seven-link`` and ``bipedlab experiment
-seven-link free-swing|low-gain-pd`` (registered with :mod:`bipedlab.cli`; the study module is
+seven-link free-swing|low-gain-pd`` (registered with :mod:`bipedlab.registry`; the study module is
 imported inside ``run``)."""
 from __future__ import annotations
 
-from bipedlab.cli import Command, UsageError, add_out, int_in
+from bipedlab.commands import Command, UsageError, add_out, int_in
 
 ROBOT = "seven-link"
 EXPERIMENTS = ["free-swing", "low-gain-pd"]

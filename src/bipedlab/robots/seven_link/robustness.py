@@ -9,7 +9,7 @@ own sample bound) until ``--steps`` touchdowns; it survives when it gets there w
 """
 from __future__ import annotations
 
-from bipedlab.cli import float_in, int_in
+from bipedlab.commands import float_in, int_in
 from bipedlab.robustness import options
 
 ROBOT = "seven-link"
