@@ -9,7 +9,8 @@ This module imports nothing but the standard library, so that a command module c
 (and ``bipedlab --help`` built) without JAX: a command's ``run`` imports its study modules itself.
 
 * :class:`Command` and :class:`UsageError` (bad input found late: one ``bipedlab: error:`` line,
-  status 2);
+  status 2); :class:`Scenario` (a speed scenario of ``bipedlab bench``, in ``SCENARIOS``) and
+  the :class:`BenchOptions` it runs with;
 * argparse types that check their value before any work: :func:`int_in`, :func:`float_in` (the
   range is appended to the option's help), :data:`SEED`, :func:`text` (non-empty strings),
   :func:`positive_int`, :func:`positive_float`, :func:`nonnegative_float`;
@@ -65,6 +66,36 @@ class Command:
     def name(self) -> str:
         """The command line's words: "walk <robot>", or "bench"."""
         return self.verb if self.robot is None else f"{self.verb} {self.robot}"
+
+
+@dataclass(frozen=True)
+class BenchOptions:
+    """The options of ``bipedlab bench`` as a speed scenario receives them.
+
+    batches: batch sizes of the batched runs; seconds: simulated seconds per rollout; threads:
+    CPU cores for the comparison engine's threads and the batch sharding (None: all); mujoco:
+    whether to run the MuJoCo comparison."""
+
+    batches: tuple
+    seconds: float
+    threads: Optional[int]
+    mujoco: bool
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """A speed scenario of ``bipedlab bench`` (:mod:`bipedlab.bench`), declared in a command
+    module's ``SCENARIOS`` beside its ``COMMANDS``.
+
+    name: what ``bench --scenario`` calls it (e.g. "my-biped-standing").
+    help: one line for ``bench --help``.
+    run(options, progress) -> (record, summary): times the scenario with the parsed
+        :class:`BenchOptions`; imports its modules itself, like a command's run.
+    """
+
+    name: str
+    help: str
+    run: Callable[[BenchOptions, Callable[[str], None]], tuple]
 
 
 class UsageError(Exception):

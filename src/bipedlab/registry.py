@@ -5,7 +5,8 @@ whose ``COMMANDS`` is a list of :class:`bipedlab.commands.Command`; :func:`comma
 with ``pkgutil.iter_modules(bipedlab.robots.__path__)``, after the core's own command modules
 (:data:`CORE_CLI_MODULES`), and :func:`build_parser` gives every (verb, robot) its own argparse
 sub-sub-parser, so a robot has exactly its own options. A command with ``robot=None`` (e.g.
-``bench``) is ``bipedlab <verb> [options]``.
+``bench``) is ``bipedlab <verb> [options]``. A command module may also declare the speed
+scenarios of ``bipedlab bench`` (``SCENARIOS``, :func:`scenarios`).
 
 Third-party packages register commands the same way through the entry-point group
 ``bipedlab.robots``: each entry point names a module with ``COMMANDS`` (or the list itself),
@@ -28,11 +29,12 @@ import os
 import pkgutil
 import sys
 
-from bipedlab.commands import Command, Range, UsageError, one_line
+from bipedlab.commands import Command, Range, Scenario, UsageError, one_line
 
 ENTRY_POINT_GROUP = "bipedlab.robots"
-CORE_CLI_MODULES = ("bipedlab.report.cli",)
-"""The core's own command modules (same ``COMMANDS`` protocol as the robots'): ``reproduce``."""
+CORE_CLI_MODULES = ("bipedlab.report.cli", "bipedlab.bench")
+"""The core's own command modules (same ``COMMANDS`` protocol as the robots'): ``reproduce``
+and ``bench``."""
 VERB_ORDER = ("reproduce", "bench", "optimize", "walk", "experiment", "run", "hop", "identify")
 """Listing order of the verbs (others follow alphabetically)."""
 
@@ -73,17 +75,21 @@ def robot_cli_modules() -> list[str]:
     return names
 
 
-def _entry_point_commands() -> list:
+def _entry_points() -> list:
+    """What the entry points of the group name (a module, or a list of Commands), by name."""
     from importlib.metadata import entry_points
 
     try:
         eps = entry_points(group=ENTRY_POINT_GROUP)
     except TypeError:  # Python < 3.10 style API
         eps = entry_points().get(ENTRY_POINT_GROUP, [])
-    out = []
-    for ep in sorted(eps, key=lambda e: e.name):
-        out += _module_commands(ep.load())
-    return out
+    return [ep.load() for ep in sorted(eps, key=lambda e: e.name)]
+
+
+def _sources() -> list:
+    """The command modules in registry order: the core's, the robot packages' (in package
+    order), then what the entry points name."""
+    return [importlib.import_module(n) for n in CORE_CLI_MODULES + tuple(robot_cli_modules())] + _entry_points()
 
 
 def commands() -> list[Command]:
@@ -91,9 +97,8 @@ def commands() -> list[Command]:
     order), then the entry points'. Raises ValueError on two commands for one (verb, robot) or a verb both with and
     without a robot."""
     found = []
-    for name in CORE_CLI_MODULES + tuple(robot_cli_modules()):
-        found += _module_commands(importlib.import_module(name))
-    found += _entry_point_commands()
+    for obj in _sources():
+        found += _module_commands(obj)
     seen: dict = {}
     for c in found:
         if (c.verb, c.robot) in seen:
@@ -103,6 +108,21 @@ def commands() -> list[Command]:
         kinds = {c.robot is None for c in found if c.verb == verb}
         if len(kinds) > 1:
             raise ValueError(f"'{verb}' is registered both with and without a robot")
+    return found
+
+
+def scenarios() -> list[Scenario]:
+    """Every registered speed scenario of ``bipedlab bench`` (the ``SCENARIOS`` of the command
+    modules, in the order of :func:`commands`). Raises ValueError on two scenarios of one name."""
+    found = []
+    for obj in _sources():
+        for s in getattr(obj, "SCENARIOS", ()):
+            if not isinstance(s, Scenario):
+                raise TypeError(f"{getattr(obj, '__name__', obj)!r}: SCENARIOS must hold bipedlab.commands.Scenario, "
+                                f"got {s!r}")
+            if any(s.name == f.name for f in found):
+                raise ValueError(f"two scenarios named '{s.name}'")
+            found.append(s)
     return found
 
 

@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import sys
 import time
 from typing import Callable, Sequence
 
@@ -293,7 +292,3 @@ def summary(r: dict) -> str:
                      f"single {100 * r['single_fraction_of_ceiling']:.1f} %, best batch "
                      f"{100 * r['batched_fraction_of_ceiling']:.1f} % of it")
     return "\n".join(lines)
-
-
-def _eprint(msg: str) -> None:
-    print(f"[bench] {msg}", file=sys.stderr, flush=True)

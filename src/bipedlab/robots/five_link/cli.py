@@ -1,11 +1,11 @@
-"""The five-link biped's commands: ``bipedlab bench``, ``bipedlab optimize five-link`` and
-``bipedlab walk five-link`` (registered with :mod:`bipedlab.registry`; study modules are imported
-inside ``run``)."""
+"""The five-link biped's commands: ``bipedlab optimize five-link`` and ``bipedlab walk
+five-link``, and the anchor scenario of ``bipedlab bench`` (registered with
+:mod:`bipedlab.registry`; study modules are imported inside ``run``)."""
 from __future__ import annotations
 
 import os
 
-from bipedlab.commands import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
+from bipedlab.commands import SEED, Command, Scenario, UsageError, add_out, add_save, float_in, int_in, text
 
 ROBOT = "five-link"
 CONTROLLERS = ["iolin", "pd"]
@@ -19,54 +19,18 @@ def _out(p) -> None:
 
 
 # ----------------------------------------------------------------------------- bench
-def _bench_arguments(p) -> None:
-    p.add_argument("--batch", type=int_in(1, 1 << 20), nargs="+", default=[64, 256], metavar="N",
-                   help="batch sizes for the batched bipedlab runs (64 is always run)")
-    # at least 40 substeps of 0.25 ms, so that the rate is measured, not the call overhead
-    p.add_argument("--seconds", type=float_in(0.01, 60.0), default=2.0, help="simulated seconds per rollout")
-    p.add_argument("--threads", type=int_in(1, 1024), default=None,
-                   help="CPU cores for MuJoCo threads and bipedlab batch sharding (default: all)")
-    p.add_argument("--no-mujoco", action="store_true", help="skip the MuJoCo comparison")
-    p.add_argument("--studies", nargs="*", type=text, default=None, metavar="NAME",
-                   help="instead: the first-run benchmark of the studies (each study's short version from an "
-                        "empty compilation cache, then warm: compile and run seconds, compiled programs, peak "
-                        "memory); NAME selects studies by their leading words (default: all but the long ones)")
-    p.add_argument("--cold-only", action="store_true", help="--studies: skip the warm runs")
-    p.add_argument("--timeout", type=float_in(1.0, 86_400.0), default=None,
-                   help="--studies: seconds after which one study run is stopped and reported as failed")
-
-
-def _bench_validate(args) -> None:
-    if args.studies is not None:
-        from bipedlab import studybench
-
-        try:
-            studybench.select(args.studies, studybench.studies())
-        except ValueError as e:
-            raise UsageError(str(e)) from None
-
-
-def _bench_cores(args) -> None:
-    """Batched CPU rollouts use every core, as MuJoCo's do: set before JAX touches a device
-    (not for --studies, whose studies run in their own processes with the user's settings)."""
-    if args.studies is not None:
-        return
-    from bipedlab.sim import use_cpu_cores
-
-    use_cpu_cores(args.threads)
-
-
-def _bench(args, progress):
-    if args.studies is not None:
-        from bipedlab import studybench
-
-        chosen = studybench.select(args.studies, studybench.studies())
-        return studybench.run(chosen, warm=not args.cold_only, timeout=args.timeout, progress=progress), \
-            studybench.summary
+def _standing(options, progress):
+    """The anchor scenario of ``bipedlab bench`` (:mod:`.bench`)."""
     from bipedlab.robots.five_link import bench
 
-    rec = bench.run(args.batch, args.seconds, args.threads, not args.no_mujoco, progress=bench._eprint)
+    rec = bench.run(options.batches, options.seconds, options.threads, options.mujoco, progress=progress)
     return rec, bench.summary
+
+
+SCENARIOS = [
+    Scenario("five-link-standing", "the five-link biped standing under joint PD on the penalty ground, RK4 at "
+             "0.25 ms, 1 kHz control", _standing),
+]
 
 
 # ----------------------------------------------------------------------------- optimize
@@ -115,8 +79,6 @@ def _walk(args, progress):
 
 
 COMMANDS = [
-    Command("bench", None, "speed of the anchor scenario beside MuJoCo (single, batched, compile time)",
-            _bench_arguments, _bench, compile_cache=False, before_jax=_bench_cores, validate=_bench_validate),
     Command("optimize", ROBOT, "design a periodic HZD walking gait by optimisation", _optimize_arguments, _optimize,
             bench=((),)),
     Command("walk", ROBOT, "closed-loop HZD walking on a designed gait, optionally from a perturbed state",
