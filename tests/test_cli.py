@@ -245,6 +245,34 @@ def test_no_arguments_lists_every_verb_and_command(capsys):
         assert c.verb in studies and c.name in studies and c.help in studies
 
 
+HELP_CHECK = """
+import contextlib, io, json, sys
+from bipedlab.cli import main
+out = {}
+for argv in ARGVS:
+    with contextlib.redirect_stdout(io.StringIO()):
+        try:
+            code = main(argv)
+        except SystemExit as e:
+            code = e.code
+    out[" ".join(argv)] = code
+heavy = sorted(m for m in sys.modules if m.split(".")[0] in ("jax", "jaxlib", "numpy", "scipy", "mujoco"))
+print(json.dumps(dict(codes=out, heavy=heavy)))
+"""
+
+
+def test_help_imports_no_jax():
+    """The listing and every command's --help (what a command module declares: options,
+    vocabularies, refusal reasons) are built without importing JAX, NumPy or any study."""
+    argvs = [[]] + [c.name.split() + ["--help"] for c in cli.commands()]
+    r = subprocess.run([sys.executable, "-c", f"ARGVS = {argvs!r}\n" + HELP_CHECK], capture_output=True, text=True,
+                       timeout=120)
+    assert r.returncode == 0, r.stderr
+    rep = json.loads(r.stdout)
+    assert set(rep["codes"].values()) == {0}, rep["codes"]
+    assert rep["heavy"] == [], rep["heavy"]
+
+
 def test_the_core_names_no_robot():
     text = pathlib.Path(cli.__file__).read_text()
     for c in cli.commands():

@@ -10,10 +10,26 @@
 * :mod:`.hopping` - the two-legged hopping controller (identification paper, Appendix C), its
   study and Poincaré analysis.
 * :mod:`.sysid` - the system identification: experiments, estimators, logs, study.
+
+The names below load on first use, so that the command line's discovery of this package
+imports nothing heavy.
 """
-from bipedlab.robots.mabel import dynamics, model, tables, transmission
-from bipedlab.robots.mabel.dynamics import energy, flow, step, toe_positions
-from bipedlab.robots.mabel.model import COORDS_9, COORDS_13, Mabel, hopping_model, rigid_model
+from __future__ import annotations
+
+import importlib
+
+_NAMES = {"energy": "dynamics", "flow": "dynamics", "step": "dynamics", "toe_positions": "dynamics",
+          "COORDS_9": "model", "COORDS_13": "model", "Mabel": "model", "hopping_model": "model",
+          "rigid_model": "model"}
+_MODULES = ("dynamics", "model", "tables", "transmission")
 
 __all__ = ["dynamics", "model", "tables", "transmission", "energy", "flow", "step", "toe_positions",
            "COORDS_9", "COORDS_13", "Mabel", "hopping_model", "rigid_model"]
+
+
+def __getattr__(name):
+    if name in _MODULES:
+        return importlib.import_module(f"bipedlab.robots.mabel.{name}")
+    if name in _NAMES:
+        return getattr(importlib.import_module(f"bipedlab.robots.mabel.{_NAMES[name]}"), name)
+    raise AttributeError(f"module 'bipedlab.robots.mabel' has no attribute {name!r}")
