@@ -16,7 +16,7 @@ import pytest
 from helpers import expect_usage_error
 
 from bipedlab.control import bezier as bz
-from bipedlab.robots.mabel import cli as mcli
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking import experiments as wx
 from bipedlab.robots.mabel.walking import loop as sw
@@ -108,7 +108,7 @@ def test_a_fallen_walk_reports_no_speed():
     assert r["fell"] is True and r["speed_mps"] is None
     assert len(r["speed_per_step"]) == r["steps_completed"] < 5
     assert r["step_lengths_m"][0] < 0.0 and r["step_durations_s"][0] < 0.1
-    strike, steps, t = mcli.FAST_GAIT_FALLS[("pdff", "ideal")]
+    strike, steps, t = catalog.FAST_GAIT_FALLS[("pdff", "ideal")]
     assert strike == 1 and r["steps_completed"] == steps and r["fell_at_s"] == pytest.approx(t, abs=1.5e-3)
 
 
@@ -120,7 +120,7 @@ def test_walk_refuses_the_fast_gait_where_it_falls(controller, sensing, capsys):
 
     line = expect_usage_error(["walk", "mabel", "--gait", "fast", "--controller", controller, "--sensing", sensing],
                               capsys, "falls")
-    strike, steps, t = mcli.FAST_GAIT_FALLS[(controller, sensing)]
+    strike, steps, t = catalog.FAST_GAIT_FALLS[(controller, sensing)]
     assert "every controller" in line and f"step {strike} " in line and f"step {steps + 1})" in line
     assert f"{t:.2f} s" in line
 

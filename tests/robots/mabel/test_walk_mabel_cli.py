@@ -111,7 +111,7 @@ def test_pd_gains_refuses_steps(capsys):
 
 def test_falling_pairing_is_refused(capsys):
     """A shipped gait under a controller/sensing pairing that falls within 100 steps (measured,
-    cli.GAIT_FALLS) is refused with one line naming the fall."""
+    catalog.GAIT_FALLS) is refused with one line naming the fall."""
     expect_usage_error(["walk", "mabel", "--gait", "paper-efficient", "--controller", "decentralized"], capsys,
                        "falls under decentralized")
 

@@ -8,48 +8,16 @@ import math
 import os
 
 from bipedlab.commands import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
+from bipedlab.robots.mabel.walking import catalog
 
 ROBOT = "mabel"
-EXPERIMENTS = ["nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4",
-               "full-plant"]
-GAITS = ("nominal", "efficient", "fast", "paper-nominal", "paper-efficient")
 STEPS = int_in(1, 10_000)
 SPEED = float_in(0.1, 2.0)         # m/s; the designed gaits span 0.6-1.6
 STEP_LENGTH = float_in(0.2, 1.0)   # m; legs of 1 m, reached by continuation in 3 cm solves
 IMPACT_SCALE = float_in(0.5, 1.5)  # Table I spans 0.96-1
 LEAN = float_in(-45.0, 45.0)       # deg
-PUSH_FORCE = 1000.0                # N, |force| at most (the robot weighs about 650 N)
-PUSH_STEP = 10                     # the push experiment's step (experiments.PUSH_STEP)
-STEADY_STEPS = 10                  # impact-scaling: steady speed over the last 10 steps
-
-
-#: the shipped ``fast`` gait (designed at 1.52 m/s) under each (controller, sensing) pairing of
-#: ``walk mabel``: (step, counted from 1, in which its swing toe strikes the ground behind the
-#: stance toe, 0.03-0.05 s into that step; touchdowns before the fall; time of the fall in s),
-#: measured on the closed loop (:func:`bipedlab.robots.mabel.walking.study.walk`, 5 steps
-#: asked). After the strike the hip drops below the walking range (PD + feedforward) or the
-#: torso pitches forward past 75 deg (I/O linearisation).
-FAST_GAIT_FALLS = {
-    ("pdff", "encoders"): (1, 2, 0.535), ("pdff", "observer"): (1, 2, 0.569), ("pdff", "ideal"): (1, 2, 0.539),
-    ("iolin", "encoders"): (2, 2, 0.540), ("iolin", "observer"): (2, 2, 0.541), ("iolin", "ideal"): (1, 1, 0.252),
-    ("decentralized", "encoders"): (3, 3, 0.785), ("decentralized", "observer"): (2, 2, 0.551),
-    ("decentralized", "ideal"): (1, 1, 0.250),
-}
-
-
-#: the other shipped gaits' (gait, controller, sensing) pairings that do not walk 100 steps on the
-#: stance plant: (touchdowns before the fall, time of the fall in s), measured with
-#: :func:`bipedlab.robots.mabel.walking.study.walk` (100 steps asked); every pairing not listed
-#: walks 100 steps
-GAIT_FALLS = {
-    ("paper-efficient", "decentralized", "encoders"): (80, 36.19),
-    ("efficient", "decentralized", "encoders"): (3, 0.78), ("efficient", "decentralized", "observer"): (3, 0.83),
-}
-#: the full-model ``efficient`` gait: its swing toe clears the ground by at most 1.9 cm on the
-#: designed orbit, and under each pairing (measured: PD + feedforward on encoders, step lengths
-#: -0.21, +0.54, -0.26 m, ...) it strikes the ground behind the stance toe in the first step,
-#: about 0.17 s in, so the walk alternates backward and forward touchdowns (or falls, GAIT_FALLS)
-TOE_STRIKES = {"efficient"}
+EXPERIMENTS = catalog.EXPERIMENTS
+PUSH_FORCE = catalog.PUSH_FORCE
 
 
 def _out(p, what: str = "figures (PNG) and data (NPZ)") -> None:
@@ -74,9 +42,9 @@ def _optimize_arguments(p) -> None:
     p.add_argument("--speed", type=SPEED, default=0.8, help="walking speed, m/s")
     p.add_argument("--step-length", type=STEP_LENGTH, default=None, metavar="L",
                    help="prescribe the step length in m (e.g. 0.575, the paper's nominal gait)")
-    p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
+    p.add_argument("--cost", choices=catalog.COSTS, default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
-    p.add_argument("--design-model", choices=["paper", "full"], default="paper",
+    p.add_argument("--design-model", choices=catalog.DESIGN_MODELS, default="paper",
                    help="paper: the HZD paper's design model, rigid cables without motor friction or spring "
                         "damping (default; the shipped paper-nominal and paper-efficient gaits); full: with motor "
                         "friction (Table V) and spring damping in the zero dynamics (the shipped nominal and "
@@ -97,11 +65,10 @@ def _optimize(args, progress):
 # ----------------------------------------------------------------------------- walk
 def _walk_arguments(p) -> None:
     p.add_argument("--steps", type=STEPS, default=None, help="number of steps (default 100)")
-    p.add_argument("--controller", choices=["pdff", "iolin", "decentralized"], default=None,
-                   help="pdff | iolin | decentralized (default pdff)")
-    p.add_argument("--gait", type=text, metavar="GAIT", help="nominal | efficient | fast | paper-nominal | "
-                                                             "paper-efficient or a gait file from optimize --save "
-                                                             "(default nominal)")
+    p.add_argument("--controller", choices=catalog.CONTROLLERS, default=None,
+                   help=f"{' | '.join(catalog.CONTROLLERS)} (default {catalog.DEFAULT_CONTROLLER})")
+    p.add_argument("--gait", type=text, metavar="GAIT", help=f"{' | '.join(catalog.GAITS)} or a gait file from "
+                                                             f"optimize --save (default {catalog.DEFAULT_GAIT})")
     p.add_argument("--push", type=push_value, metavar="FORCE@STEP",
                    help=f"horizontal force (N, + forward, |FORCE| <= {PUSH_FORCE:g}) on the hip over the second "
                         "half of step STEP (counted from 0, before --steps); a backward push is written with '=', "
@@ -113,10 +80,10 @@ def _walk_arguments(p) -> None:
                         "--lean-steps steps, as in Exp. 5")
     p.add_argument("--lean-steps", type=STEPS, default=None, metavar="N",
                    help="steps over which --lean is ramped in (default 20)")
-    p.add_argument("--sensing", choices=["encoders", "observer", "ideal"], default="encoders",
+    p.add_argument("--sensing", choices=catalog.SENSING, default="encoders",
                    help="14-bit encoders with filtered differentiated velocities (default), the same encoders "
                         "with a model-based velocity observer, or the exact state")
-    p.add_argument("--plant", choices=["stance", "full"], default="stance",
+    p.add_argument("--plant", choices=catalog.PLANTS, default="stance",
                    help="stance: the model the gaits are designed on (rigid cables, pinned toe, rigid impact; "
                         "default); full: the 13-DoF model with cable stretch, compliant ground with LuGre "
                         "friction, a free swing spring and hard stops")
@@ -133,24 +100,12 @@ def _walk_validate(args) -> None:
     if args.plant == "full" and args.impact_scale != 1.0:
         raise UsageError("--plant full: --impact-scale applies to the stance plant only (the full plant's impact is "
                          "its compliant ground's)")
-    if args.gait is not None and args.gait not in GAITS and not os.path.isfile(args.gait):
-        raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(GAITS)}) nor a file")
-    pairing = (args.controller or "pdff", args.sensing)
-    if args.gait == "fast" and pairing in FAST_GAIT_FALLS:
-        strike, steps, t = FAST_GAIT_FALLS[pairing]
-        raise UsageError(f"--gait fast: the shipped fast gait falls under every controller in this model "
-                         f"({pairing[0]} with {pairing[1]} sensing: its swing toe strikes the ground behind the "
-                         f"stance toe in step {strike} and it falls {t:.2f} s in, in step {steps + 1}); for fast "
-                         f"walking lean the nominal gait forward (experiment mabel fast)")
-    key = (args.gait or "nominal", *pairing)
-    if args.plant == "stance" and key[0] in TOE_STRIKES and key not in GAIT_FALLS:
-        raise UsageError(f"--gait {key[0]}: its swing toe clears the ground by 1.9 cm at most and strikes it behind "
-                         "the stance toe in the first step, so the walk alternates backward and forward touchdowns; "
-                         "walk paper-efficient, the c_mt gait of the paper's design model")
-    if args.plant == "stance" and key in GAIT_FALLS:
-        steps, t = GAIT_FALLS[key]
-        raise UsageError(f"--gait {key[0]}: falls under {key[1]} with {key[2]} sensing in this model (in step "
-                         f"{steps + 1}, {t:.2f} s in, of 100 asked); the other sensing options walk it")
+    gait = args.gait or catalog.DEFAULT_GAIT
+    if gait not in catalog.GAITS and not os.path.isfile(gait):
+        raise UsageError(f"--gait: {gait!r} is neither a shipped gait ({', '.join(catalog.GAITS)}) nor a file")
+    why = catalog.walk_refusal(gait, args.controller or catalog.DEFAULT_CONTROLLER, args.sensing, args.plant)
+    if why is not None:
+        raise UsageError(f"--gait {gait}: {why}")
 
 
 def _walk(args, progress):
@@ -173,25 +128,18 @@ def _walk(args, progress):
 def _experiment_arguments(p) -> None:
     p.add_argument("name", choices=EXPERIMENTS, help=" | ".join(EXPERIMENTS))
     p.add_argument("--steps", type=STEPS, default=None,
-                   help=f"steps per walk (defaults per experiment; push: at least {PUSH_STEP + 1}, to reach the push "
-                        f"in step {PUSH_STEP}; impact-scaling: at least {STEADY_STEPS}; not for sweep and "
-                        f"pd-gains)")
+                   help=f"steps per walk (defaults per experiment; push: at least {catalog.PUSH_STEP + 1}, to reach "
+                        f"the push in step {catalog.PUSH_STEP}; impact-scaling: at least {catalog.STEADY_STEPS}; not "
+                        f"for {' and '.join(catalog.NO_STEPS)})")
     _out(p)
 
 
 def _experiment_validate(args) -> None:
     if args.steps is None:
         return
-    if args.name == "sweep":
-        raise UsageError("sweep: --steps does not apply (the sweep designs gaits, it does not walk them)")
-    if args.name == "pd-gains":
-        raise UsageError("pd-gains: --steps does not apply (the eigenvalues come from the return map, not a walk)")
-    if args.name == "push" and args.steps <= PUSH_STEP:
-        raise UsageError(f"push: --steps must be at least {PUSH_STEP + 1} to reach the push in step {PUSH_STEP} "
-                         f"(counted from 0), got {args.steps}")
-    if args.name == "impact-scaling" and args.steps < STEADY_STEPS:
-        raise UsageError(f"impact-scaling: --steps must be at least {STEADY_STEPS} (the steady speed is the mean of "
-                         f"the last {STEADY_STEPS} steps), got {args.steps}")
+    why = catalog.experiment_steps_refusal(args.name, args.steps)
+    if why is not None:
+        raise UsageError(f"{args.name}: {why}")
 
 
 def _experiment(args, progress):

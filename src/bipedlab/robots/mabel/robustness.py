@@ -12,6 +12,7 @@ initial-state perturbations of the joint rates and encoder noise (:func:`walking
 from __future__ import annotations
 
 from bipedlab.commands import float_in, int_in
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robustness import options
 
 HOP_PERIOD_S = 0.7  # s per hop allowed, as the hopping study's runs
@@ -147,15 +148,15 @@ def _walk_options(p) -> None:
 
     p.add_argument("--steps", type=int_in(PUSH_STEP + 1, 200), default=6,
                    help=f"nominal step periods a trial walks (default 6; the push is in step {PUSH_STEP})")
-    p.add_argument("--controller", choices=["pdff", "iolin", "decentralized"], default="decentralized",
+    p.add_argument("--controller", choices=catalog.CONTROLLERS, default="decentralized",
                    help="default decentralized (the compliant-HZD controller)")
-    p.add_argument("--gait", type=text, default="nominal", help="nominal | efficient | fast | a gait file")
+    p.add_argument("--gait", type=text, default=catalog.DEFAULT_GAIT, help=f"{' | '.join(catalog.GAITS)} | a gait file")
     p.add_argument("--max-force", type=float_in(0.0, 500.0), default=80.0, help="largest push, N (default 80)")
     p.add_argument("--perturb", type=float_in(0.0, 1.0), default=0.0,
                    help="relative s.d. of the initial rates' perturbation (default 0)")
     p.add_argument("--noise", type=float_in(0.0, 1000.0), default=0.0,
                    help="encoder noise s.d. in counts of the 14-bit encoders (default 0)")
-    p.add_argument("--sensing", choices=["encoders", "observer", "ideal"], default="encoders",
+    p.add_argument("--sensing", choices=catalog.SENSING, default="encoders",
                    help="rate estimation, as walk mabel (default encoders)")
     p.add_argument("--bins", type=int_in(2, 100), default=6, help="cells per map axis (default 6)")
 
@@ -165,8 +166,8 @@ def _walk_check(args) -> None:
 
     from bipedlab.commands import UsageError
 
-    if args.gait not in ("nominal", "efficient", "fast") and not os.path.isfile(args.gait):
-        raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait (nominal, efficient, fast) nor a file")
+    if args.gait not in catalog.GAITS and not os.path.isfile(args.gait):
+        raise UsageError(f"--gait: {args.gait!r} is neither a shipped gait ({', '.join(catalog.GAITS)}) nor a file")
 
 
 def _walk_build(args, progress):

@@ -31,10 +31,11 @@ import numpy as np
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.control import bezier as bz
 from bipedlab.control import hzd
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.pytree import pytree
 
-KINDS = ("pdff", "iolin", "decentralized")
+KINDS = catalog.CONTROLLERS
 #: actuator (in u = (mLA_st, mLS_st, mLA_sw, mLS_sw)) driving each output (mLS_st, LA_sw, mLS_sw, Tor)
 ACTUATOR_OF_OUTPUT = (1, 2, 3, 0)
 _THETA_Q = jnp.asarray([-1.0, 0.0, 0.0, 0.0, 0.0, -1.0])

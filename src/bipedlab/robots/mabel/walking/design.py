@@ -37,6 +37,7 @@ import jax.numpy as jnp
 import numpy as np
 import scipy.optimize
 
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.robots.mabel import tables as tb
@@ -186,7 +187,7 @@ def initial_guess(speed: float = 0.8) -> np.ndarray:
 #: term, it gives no friction or damping coefficients, its Section VI-C names friction (with
 #: cable stretch) as what raised the realised c_mt above the designed one, and the spring
 #: damping was identified later, from the hopping experiments (identification paper, Table VI).
-DESIGN_MODELS = ("full", "paper")
+DESIGN_MODELS = catalog.DESIGN_MODELS
 
 
 def design_model(m=None, kind: str = "full"):

@@ -34,18 +34,19 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
 from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import study as wm
 
-NAMES = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4", "full-plant")
+NAMES = catalog.EXPERIMENTS
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
 PUSHES = (78.0, -71.0)
 #: pushes the decentralised HZD controller survives in this model (N, + forward)
 HZD_PUSHES = (30.0, -40.0)
-PUSH_STEP = 10
+PUSH_STEP = catalog.PUSH_STEP
 SWEEP_SPEEDS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6)
 
 
@@ -252,7 +253,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
 
 #: Exp. 3's gait: the c_mt gait of the paper's design model. The full-model ``efficient`` gait
 #: clears the ground by at most 1.9 cm on its designed orbit, and under every controller its
-#: swing toe strikes the ground behind the stance toe in the first step (cli.GAIT_FALLS)
+#: swing toe strikes the ground behind the stance toe in the first step (catalog.GAIT_FALLS)
 EXP3_GAIT, EXP3_NOMINAL = "paper-efficient", "paper-nominal"
 
 
@@ -303,7 +304,7 @@ def paper_speed_sensitivity() -> float:
     return speed_sensitivity(list(table), list(table.values()))
 
 
-def impact_scaling(steps, progress, out, etas=ETAS, average=10, pdff_column=True):
+def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS, pdff_column=True):
     """Table I is a simulation of the nominal fixed point: here under the compliant-HZD
     controller with exact sensing (the model's own closed loop), and beside it (``pdff_column``)
     PD + feedforward with encoders (the experiment's controller). The steady speed is the mean

@@ -23,6 +23,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.gait import gaitfile
@@ -37,11 +38,11 @@ from bipedlab.robots.mabel.walking import loop as sw
 #: payload kind of MABEL gait files, and the format string of their version-1 files
 KIND = "mabel-compliant-hzd"
 FORMAT_V1 = "bipedlab-mabel-gait/1"
-#: shipped gaits: ``nominal``, ``efficient`` and ``fast`` designed on the full design model (the
-#: experiments walk them); ``paper-nominal`` and ``paper-efficient`` are what ``optimize mabel
-#: --speed 0.8 --cost torque|cmt`` gives on the default (paper) design model
-GAITS = ("nominal", "efficient", "fast", "paper-nominal", "paper-efficient")
-CONTROLLERS = ctl.KINDS
+#: shipped gaits, controllers, sensing options and plants (:mod:`.catalog`)
+GAITS = catalog.GAITS
+CONTROLLERS = catalog.CONTROLLERS
+SENSING = catalog.SENSING
+PLANTS = catalog.PLANTS
 OUTPUT_NAMES = vcm.OUTPUTS
 #: The paper's figures, for side-by-side reports.
 PAPER = dict(step_length_nominal=0.575, cmt_nominal=0.0452, cmt_efficient=0.0385, eig_pdff_nominal=0.6921,
@@ -283,11 +284,6 @@ def parse_push(text: str | None):
     return force, step
 
 
-#: sensing options: 14-bit encoders with the filtered backward difference (the experiments'),
-#: the same encoders with the model-based velocity observer, or the exact state
-SENSING = ("encoders", "observer", "ideal")
-
-
 def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", lean=0.0, lean_steps=1) -> sw.Setup:
     if sensing not in SENSING:
         raise ValueError(f"sensing must be one of {', '.join(SENSING)}, got {sensing!r}")
@@ -295,12 +291,6 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
     return sw.Setup(vc=vc, gains=gains, eta=f(eta), push_force=f(push[0]), push_step=jnp.asarray(push[1]),
                     period=f(period), quantised=f(0.0 if sensing == "ideal" else 1.0), lean=f(lean),
                     lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0))
-
-
-#: plants ``walk mabel`` can drive: the stance model the gaits are designed on (rigid cables,
-#: pinned toe, swing spring at rest, rigid impact), or the 13-DoF model with cable stretch, the
-#: compliant ground and a free swing spring (:mod:`.full_plant`)
-PLANTS = ("stance", "full")
 
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",

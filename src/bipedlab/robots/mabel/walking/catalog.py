@@ -1,0 +1,107 @@
+"""The walking studies' vocabularies and measured facts, as data: the names the studies take
+(gaits, controllers, sensing, plants, design models, costs, experiments) and what the studies
+measured about the shipped gaits (which pairings fall, which gait strikes the ground behind
+the stance toe), with the reasons ``walk mabel`` and ``experiment mabel`` refuse a request.
+
+The studies (:mod:`.study`, :mod:`.controllers`, :mod:`.design`, :mod:`.experiments`) and the
+command line (:mod:`bipedlab.robots.mabel.cli`, :mod:`bipedlab.robots.mabel.robustness`) read
+these names from here. This module imports nothing, so that the command line's parser builds
+without JAX.
+"""
+from __future__ import annotations
+
+#: shipped gaits: ``nominal``, ``efficient`` and ``fast`` designed on the full design model (the
+#: experiments walk them); ``paper-nominal`` and ``paper-efficient`` are what ``optimize mabel
+#: --speed 0.8 --cost torque|cmt`` gives on the default (paper) design model
+GAITS = ("nominal", "efficient", "fast", "paper-nominal", "paper-efficient")
+DEFAULT_GAIT = "nominal"
+#: controllers of the walking loop: PD + feedforward (eq. 43), I/O linearisation with the
+#: hybrid-invariance corrections, and its decentralised form
+CONTROLLERS = ("pdff", "iolin", "decentralized")
+DEFAULT_CONTROLLER = "pdff"
+#: sensing options: 14-bit encoders with the filtered backward difference (the experiments'),
+#: the same encoders with the model-based velocity observer, or the exact state
+SENSING = ("encoders", "observer", "ideal")
+#: plants ``walk mabel`` can drive: the stance model the gaits are designed on (rigid cables,
+#: pinned toe, swing spring at rest, rigid impact), or the 13-DoF model with cable stretch, the
+#: compliant ground and a free swing spring (:mod:`.full_plant`)
+PLANTS = ("stance", "full")
+#: design models of a gait: with motor friction and spring damping in the zero dynamics
+#: (``full``), or the HZD paper's, without them (``paper``)
+DESIGN_MODELS = ("full", "paper")
+#: costs of the gait design: integral of squared torque per step length, or mechanical c_mt
+COSTS = ("torque", "cmt")
+#: the experiments of ``experiment mabel`` (:mod:`.experiments`)
+EXPERIMENTS = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4",
+               "full-plant")
+#: the push experiment's step (counted from 0)
+PUSH_STEP = 10
+#: impact-scaling: the steady speed is the mean over the last STEADY_STEPS steps
+STEADY_STEPS = 10
+#: experiments that walk no fixed number of steps, and why --steps does not apply to them
+NO_STEPS = {"sweep": "the sweep designs gaits, it does not walk them",
+            "pd-gains": "the eigenvalues come from the return map, not a walk"}
+#: the largest horizontal push force of ``walk mabel --push``, N (the robot weighs about 650 N)
+PUSH_FORCE = 1000.0
+
+#: the shipped ``fast`` gait (designed at 1.52 m/s) under each (controller, sensing) pairing of
+#: ``walk mabel``: (step, counted from 1, in which its swing toe strikes the ground behind the
+#: stance toe, 0.03-0.05 s into that step; touchdowns before the fall; time of the fall in s),
+#: measured on the closed loop (:func:`bipedlab.robots.mabel.walking.study.walk`, 5 steps
+#: asked). After the strike the hip drops below the walking range (PD + feedforward) or the
+#: torso pitches forward past 75 deg (I/O linearisation).
+FAST_GAIT_FALLS = {
+    ("pdff", "encoders"): (1, 2, 0.535), ("pdff", "observer"): (1, 2, 0.569), ("pdff", "ideal"): (1, 2, 0.539),
+    ("iolin", "encoders"): (2, 2, 0.540), ("iolin", "observer"): (2, 2, 0.541), ("iolin", "ideal"): (1, 1, 0.252),
+    ("decentralized", "encoders"): (3, 3, 0.785), ("decentralized", "observer"): (2, 2, 0.551),
+    ("decentralized", "ideal"): (1, 1, 0.250),
+}
+
+#: the other shipped gaits' (gait, controller, sensing) pairings that do not walk 100 steps on the
+#: stance plant: (touchdowns before the fall, time of the fall in s), measured with
+#: :func:`bipedlab.robots.mabel.walking.study.walk` (100 steps asked); every pairing not listed
+#: walks 100 steps
+GAIT_FALLS = {
+    ("paper-efficient", "decentralized", "encoders"): (80, 36.19),
+    ("efficient", "decentralized", "encoders"): (3, 0.78), ("efficient", "decentralized", "observer"): (3, 0.83),
+}
+#: the full-model ``efficient`` gait: its swing toe clears the ground by at most 1.9 cm on the
+#: designed orbit, and under each pairing (measured: PD + feedforward on encoders, step lengths
+#: -0.21, +0.54, -0.26 m, ...) it strikes the ground behind the stance toe in the first step,
+#: about 0.17 s in, so the walk alternates backward and forward touchdowns (or falls, GAIT_FALLS)
+TOE_STRIKES = {"efficient"}
+
+
+def walk_refusal(gait: str, controller: str, sensing: str, plant: str) -> str | None:
+    """Why ``walk mabel`` refuses a shipped gait under a (controller, sensing) pairing on a
+    plant, from the measurements above; None when it walks (or ``gait`` is a file)."""
+    pairing = (controller, sensing)
+    if gait == "fast" and pairing in FAST_GAIT_FALLS:
+        strike, steps, t = FAST_GAIT_FALLS[pairing]
+        return (f"the shipped fast gait falls under every controller in this model ({controller} with {sensing} "
+                f"sensing: its swing toe strikes the ground behind the stance toe in step {strike} and it falls "
+                f"{t:.2f} s in, in step {steps + 1}); for fast walking lean the nominal gait forward (experiment "
+                f"mabel fast)")
+    key = (gait, controller, sensing)
+    if plant == "stance" and gait in TOE_STRIKES and key not in GAIT_FALLS:
+        return ("its swing toe clears the ground by 1.9 cm at most and strikes it behind the stance toe in the first "
+                "step, so the walk alternates backward and forward touchdowns; walk paper-efficient, the c_mt gait of "
+                "the paper's design model")
+    if plant == "stance" and key in GAIT_FALLS:
+        steps, t = GAIT_FALLS[key]
+        return (f"falls under {controller} with {sensing} sensing in this model (in step {steps + 1}, {t:.2f} s in, "
+                f"of 100 asked); the other sensing options walk it")
+    return None
+
+
+def experiment_steps_refusal(name: str, steps: int) -> str | None:
+    """Why ``experiment mabel NAME --steps N`` cannot mean anything; None when it can."""
+    if name in NO_STEPS:
+        return f"--steps does not apply ({NO_STEPS[name]})"
+    if name == "push" and steps <= PUSH_STEP:
+        return (f"--steps must be at least {PUSH_STEP + 1} to reach the push in step {PUSH_STEP} (counted from 0), "
+                f"got {steps}")
+    if name == "impact-scaling" and steps < STEADY_STEPS:
+        return (f"--steps must be at least {STEADY_STEPS} (the steady speed is the mean of the last {STEADY_STEPS} "
+                f"steps), got {steps}")
+    return None
