@@ -6,9 +6,9 @@ import argparse
 import math
 
 from bipedlab.commands import SEED, Command, UsageError, add_out, float_in, int_in
+from bipedlab.robots.atrias import catalog
 
-#: the controller-model parameters --model-error may scale (the study's MODEL_ERRORS)
-MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
+MODEL_ERRORS = catalog.MODEL_ERRORS
 MODEL_ERROR = float_in(-0.9, 2.0)  # relative: the controller assumes 0.1 to 3 times the true value
 
 
@@ -28,7 +28,7 @@ def model_error_value(value: str) -> tuple:
 
 
 def _run_arguments(p) -> None:
-    p.add_argument("--terrain", choices=["flat", "rough", "rough-reflected", "slope"], default="flat",
+    p.add_argument("--terrain", choices=catalog.TERRAINS, default="flat",
                    help="flat ground; random steps every 3 m as derived from the paper (rough: independent levels "
                         "uniform in -H/2..H/2, changes up to H) or the former variant (rough-reflected: changes "
                         "uniform in -H..H, level reflected within -H..H); or a constant slope (default flat)")
@@ -51,7 +51,7 @@ def _run_arguments(p) -> None:
     p.add_argument("--model-error", type=model_error_value, nargs="+", action="extend", default=[], metavar="NAME=REL",
                    help=f"relative error of a model parameter the controller assumes, e.g. mass=0.2 inertia=-0.5; "
                         f"NAME one of {', '.join(MODEL_ERRORS)}, REL in {MODEL_ERROR.text}, each NAME once")
-    p.add_argument("--energy", choices=["conservation", "regulation"], default="regulation",
+    p.add_argument("--energy", choices=catalog.ENERGY, default="regulation",
                    help="stance energy management (default regulation)")
     p.add_argument("--trials", type=int_in(1, 100_000), default=None, metavar="N",
                    help="run N random terrains (and noise / model-error draws) batched in one compiled call")

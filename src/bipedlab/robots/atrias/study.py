@@ -24,6 +24,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.robots.atrias import catalog
 from bipedlab.robots.atrias import controller as rc
 from bipedlab.robots.atrias import controller_model as rm
 from bipedlab.control import slip
@@ -33,9 +34,9 @@ from bipedlab.robots.atrias import slip_run
 from bipedlab.contact import terrain as tr
 from bipedlab.outputs import dump_json
 
-MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
+MODEL_ERRORS = catalog.MODEL_ERRORS
 #: rough terrains (--terrain) -> bipedlab.contact.terrain.rough mode
-ROUGH_MODES = {"rough": "paper", "rough-reflected": "bounded"}
+ROUGH_MODES = catalog.ROUGH_MODES
 SKIP_APEX = 2
 STEADY_APEXES = 10  # the steady state: the last ten apexes of a run
 _CHUNKS: dict = {}  # compiled chunk functions, re-used across calls in one process

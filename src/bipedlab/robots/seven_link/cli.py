@@ -4,9 +4,10 @@ imported inside ``run``)."""
 from __future__ import annotations
 
 from bipedlab.commands import Command, UsageError, add_out, int_in
+from bipedlab.robots.seven_link import catalog
 
 ROBOT = "seven-link"
-EXPERIMENTS = ["free-swing", "low-gain-pd"]
+EXPERIMENTS = catalog.EXPERIMENTS
 STEPS = int_in(1, 10_000)
 
 
@@ -16,22 +17,21 @@ def _out(p) -> None:
 
 def _walk_arguments(p) -> None:
     p.add_argument("--steps", type=STEPS, default=None, help="number of steps (default 30)")
-    p.add_argument("--params", choices=["paper", "tuned"], default=None,
+    p.add_argument("--params", choices=catalog.PARAMS, default=None,
                    help="the controller's Table II parameters as published, or retuned for the planar model "
-                        "(default tuned)")
-    p.add_argument("--setup", choices=["planar", "boom"], default=None,
+                        f"(default {catalog.DEFAULT_PARAMS})")
+    p.add_argument("--setup", choices=catalog.SETUPS, default=None,
                    help="the plant: the planar model, or the experimental setup (the 1.6 m boom's inertia, turning "
                         "the feet on the ground, Coulomb drive friction identified from Fig. 6, the knee lock "
-                        "torque of Fig. 8) (default planar)")
+                        f"torque of Fig. 8) (default {catalog.DEFAULT_SETUP})")
     _out(p)
 
 
 def _walk(args, progress):
     from bipedlab.robots.seven_link import study as walk_seven_link
 
-    rec = walk_seven_link.walk(args.steps if args.steps is not None else 30,
-                               args.params if args.params is not None else "tuned", out=args.out, progress=progress,
-                               setup=args.setup if args.setup is not None else "planar")
+    rec = walk_seven_link.walk(args.steps if args.steps is not None else 30, args.params or catalog.DEFAULT_PARAMS,
+                               out=args.out, progress=progress, setup=args.setup or catalog.DEFAULT_SETUP)
     return rec, walk_seven_link.summary_walk
 
 

@@ -10,6 +10,7 @@ own sample bound) until ``--steps`` touchdowns; it survives when it gets there w
 from __future__ import annotations
 
 from bipedlab.commands import float_in, int_in
+from bipedlab.robots.seven_link import catalog
 from bipedlab.robustness import options
 
 ROBOT = "seven-link"
@@ -60,7 +61,8 @@ def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, 
 
 def _options(p) -> None:
     p.add_argument("--steps", type=int_in(1, 200), default=8, help="touchdowns a trial must reach (default 8)")
-    p.add_argument("--params", choices=["tuned", "paper"], default="tuned", help="controller gains (default tuned)")
+    p.add_argument("--params", choices=catalog.PARAMS, default=catalog.DEFAULT_PARAMS,
+                   help=f"controller gains (default {catalog.DEFAULT_PARAMS})")
     p.add_argument("--speed-change", type=float_in(0.0, 0.95), default=0.6,
                    help="largest relative change of the starting hip speed (default 0.6)")
     p.add_argument("--max-body", type=float_in(0.0, 45.0), default=10.0,

@@ -98,6 +98,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.robots.seven_link import catalog
 from bipedlab.robots.seven_link import robot as sl
 
 #: Boom radius (m), Section IV.
@@ -116,7 +117,7 @@ KNEE_LOCK_TORQUE = 1.0
 #: Regularising rates of the Coulomb drive friction (rad/s) and of the turning loss (m/s).
 COULOMB_RATE = 0.05
 TURN_RATE = 0.01
-SETUPS = ("planar", "boom")
+SETUPS = catalog.SETUPS
 #: The boom setup's losses and additions that :func:`boom` can switch off one at a time.
 PARTS = ("boom_inertia", "foot_turning", "drive_friction", "knee_lock")
 
