@@ -8,9 +8,10 @@ with a format string of their own, are still read: a robot lists its legacy form
 The core's own kind, ``"hzd"`` (gaits designed by :mod:`bipedlab.gait.optimize`), has the
 payload ``H0`` (m x n), ``c`` (n), ``alpha`` (m x (M+1)), ``theta_plus`` and ``theta_minus``
 (rad), ``z_minus`` (the pre-impact fixed point, stance coordinates and rates), and free-form
-``design`` figures (speed, cost, ...) (:func:`to_dict`, :func:`from_dict`, :func:`save`,
-:func:`load`). Every field is checked on reading, before anything runs (:mod:`.schema`): a
-problem raises ValueError ``"<file>: payload.<field>: <problem>"``.
+``design`` figures (speed, cost, the controller's chosen ``eps``, ``kp``, ``kd``, ...)
+(:func:`to_dict`, :func:`from_dict`, :func:`save`, :func:`load`). Every field is checked on
+reading, before anything runs (:mod:`.schema`): a problem raises ValueError
+``"<file>: payload.<field>: <problem>"``.
 """
 from __future__ import annotations
 
@@ -84,6 +85,9 @@ def save(path, robot: str, vc: VirtualConstraints, z_minus, design: dict) -> Non
 
 #: most coefficients of a Bézier virtual constraint (degree 1 to 20)
 MAX_COEFFICIENTS = 21
+#: bounds of the controller gains a design records (eps, kp, kd), checked on reading
+GAIN_BOUND = 1e6
+MIN_GAIN = 1e-9
 
 
 def from_dict(d: dict, source: str = "gait", sizes: tuple | None = None, robot: str | None = None
@@ -111,6 +115,9 @@ def from_dict(d: dict, source: str = "gait", sizes: tuple | None = None, robot: 
     design = schema.section(d, "design", source, pre, required=False)
     if design is not None:
         schema.optional_number(design, "speed_mps", source, pre + "design.", 100.0, "m/s")
+        for key in ("eps", "kp", "kd"):  # the controller's gains chosen by the design
+            if design.get(key) is not None:
+                schema.number(design, key, source, pre + "design.", GAIN_BOUND, "", low=MIN_GAIN)
     vc = VirtualConstraints(jnp.asarray(H0), jnp.asarray(c), jnp.asarray(alpha), jnp.asarray(tp), jnp.asarray(tm))
     return vc, jnp.asarray(z), d
 

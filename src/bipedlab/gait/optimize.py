@@ -17,8 +17,21 @@ equation thetadot(theta-) = thetadot-.
 Costs: ``torque`` = integral of |u|^2 dt per step length (eq. 39); ``cmt`` = positive actuator
 work per weight and distance (eqs. 40-41). Constraints: periodicity, swing toe on the ground at
 the end and above it in between, positive normal force, |F_T / F_N| <= mu along the step and at
-the impact, the lifting foot leaves the ground, walking speed. Derivatives are exact (JAX
-forward mode) and the NLP is solved by SciPy's SLSQP.
+the impact, the lifting foot leaves the ground, walking speed; optionally a clearance of the
+swing point over the step and a bound on the restricted Poincaré map's eigenvalue.
+Derivatives are exact (JAX forward mode) and the NLP is solved by SciPy's SLSQP.
+
+The restricted map's eigenvalue (``max_eigenvalue``). With one degree of underactuation the
+restricted map rho(thetadot-) is scalar and its slope is its eigenvalue. On Z the decision
+state is the lift of (theta-, thetadot-) (the end coefficients are derived from it), the
+impact is linear in the rates (thetadot+ = delta thetadot-, delta = thetadot+ / thetadot- of
+the candidate) and the design's own integration is the restricted map's, so
+
+    d rho / d thetadot- = delta (d zeta- / d thetadot+) / sqrt(2 zeta-),
+
+with d zeta- / d thetadot+ by forward mode (a ``jvp``) through the zero-dynamics integration;
+the constraint's Jacobian is forward mode through that (the design's Jacobian program holds
+both). At a periodic solution it is :func:`bipedlab.gait.walking.restricted_eigenvalue`.
 """
 from __future__ import annotations
 
@@ -45,7 +58,12 @@ class GaitProblem:
     order M; nodes: RK4 steps in the phase; speed: m/s; cost: 'torque' | 'cmt'; mu: friction
     ratio bound; clearance_window: fraction of the step at each end where the swing-toe
     height constraint is not imposed (the toe leaves and reaches the ground there);
-    torque_limits: (m,) largest |u| per input at every node, N m (inf: none), or None."""
+    torque_limits: (m,) largest |u| per input at every node, N m (inf: none), or None;
+    max_eigenvalue: bound R on |d rho / d thetadot-| of the restricted Poincaré map, or None
+    (no constraint, and none of its computation in the programs); clearance: m, the swing
+    point at least ``clearance * 4 s (1 - s)`` above the ground at every interior node
+    (s the step's phase fraction: the bound is the clearance at mid-step and falls to zero at
+    both ends), or 0 (only the windowed height >= 0 constraint)."""
 
     stance: Stance
     H0: np.ndarray
@@ -57,6 +75,8 @@ class GaitProblem:
     mu: float = 0.6
     clearance_window: float = 0.1
     torque_limits: tuple | None = None
+    max_eigenvalue: float | None = None
+    clearance: float = 0.0
 
     def __hash__(self):
         return id(self)
@@ -153,7 +173,17 @@ def evaluate(prob: GaitProblem, x):
     n = prob.n
     thd_p = vc.c @ zp[n:]
     thd_m = vc.c @ z_minus[n:]
-    wf, ws, thetas, (u, grf, zs) = integrate_zero_dynamics(prob, vc, thd_p)
+    if prob.max_eigenvalue is None:
+        wf, ws, thetas, (u, grf, zs) = integrate_zero_dynamics(prob, vc, thd_p)
+        slope = None
+    else:
+        def final_zeta(t):
+            out = integrate_zero_dynamics(prob, vc, t)
+            return out[0][0], out
+
+        _, dzeta, (wf, ws, thetas, (u, grf, zs)) = jax.jvp(final_zeta, (thd_p,), (jnp.ones_like(thd_p),),
+                                                           has_aux=True)
+        slope = (thd_p / thd_m) * dzeta / jnp.sqrt(jnp.maximum(2.0 * wf[0], 1e-12))
     zeta = ws[:, 0]
     thd = jnp.sqrt(jnp.maximum(2.0 * zeta, 1e-12))
     heights = jax.vmap(lambda z: swing_height(prob.stance, z))(zs)
@@ -191,11 +221,19 @@ def evaluate(prob: GaitProblem, x):
         if bounded.size:                                   # |u| within the actuators' limits
             r = u[:, bounded] / lim[bounded]
             ineq = jnp.concatenate([ineq, (1.0 - r).ravel(), (1.0 + r).ravel()])
+    if prob.clearance > 0.0:                               # the swing point clears the ground
+        s = np.arange(1, N) / N
+        ineq = jnp.concatenate([ineq, 10.0 * (heights[1:N] - prob.clearance * 4.0 * s * (1.0 - s))])
+    if slope is not None:                                  # |restricted eigenvalue| <= R
+        R = prob.max_eigenvalue
+        ineq = jnp.concatenate([ineq, jnp.stack([R - slope, R + slope])])
     metrics = dict(
         vc=vc, z_plus=zp, z_minus=z_minus, step_length=step_length, period=T,
         speed=step_length / T, torque_cost=torque_cost, cmt=cmt, thetas=thetas,
         theta_dot=thd, u=u, grf=grf, swing_heights=heights, states=zs, impulse=imp["impulse"],
     )
+    if slope is not None:
+        metrics["restricted_slope"] = slope
     return cost, eq, ineq, metrics
 
 

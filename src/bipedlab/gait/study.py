@@ -7,10 +7,25 @@ virtual constraints' output matrix H0 and phase vector c, and its name for the r
 on the zero dynamics, exact JAX derivatives), then its Poincaré analysis. ``walk``:
 closed-loop steps from the (perturbed) fixed point under I/O linearisation or PD with u*
 feedforward, events located exactly. The records' keys are the same for every robot.
+
+Stability by design (:func:`choose_controller`). The restricted map's eigenvalue can be bounded
+inside the design (``max_eigenvalue``, :mod:`bipedlab.gait.optimize`); the full closed loop's
+map has it as its dominant eigenvalue only when the outputs converge fast enough (eq. 42 with eps
+small: Morris and Grizzle 2009, Cor. 2). So after a design the I/O-linearising controller's eps
+is searched, from the study's own down :data:`EPS_GRID` with its PD gains kp, kd kept (the
+outputs' error poles a double root at -1/eps for kp = 1, kd = 2), the full map's Poincaré
+Jacobian evaluated at each (one compiled program, the gains traced), and the first, the gentlest,
+eps whose dominant |eigenvalue| is within :data:`MATCH` of the restricted map's is chosen; when
+none is, the one of smallest |eigenvalue|, with the reason in the record. A gait whose closed
+loop from the fixed point does not return to it (a swing point grazing the ground mid-step
+touches down early) is not a fixed point of any gain: the search stops there and says so. The
+gait file carries the chosen eps, kp, kd; ``walk`` uses them, and refuses a gait whose full map
+is unstable under its controller (:class:`UnstableGait`) unless asked to walk it anyway.
 """
 from __future__ import annotations
 
 import dataclasses
+import math
 import time
 from typing import Mapping
 
@@ -35,6 +50,20 @@ CONTROLLERS = {
     "iolin": gw.Controller("iolin", eps=0.1, kp=1.0, kd=2.0),
     "pd": gw.Controller("pd", kp=400.0, kd=20.0),
 }
+#: The eps searched for the I/O-linearising controller, gentlest first: those from the study's own
+#: eps down (0.1 and below for the default controller; see the module docstring).
+EPS_GRID = (0.4, 0.3, 0.2, 0.15, 0.1, 0.07, 0.05, 0.035, 0.025, 0.018, 0.0125, 0.01)
+#: How close the full map's dominant |eigenvalue| must come to the restricted map's.
+MATCH = 0.05
+#: Largest max |P(z*) - z*| (rad, rad/s) of a closed-loop fixed point: the closed loop (RK4 in time,
+#: 1 ms) leaves the design's fixed point (RK4 in the phase, NODES steps) by 3e-7 on the five-link
+#: gait and 1.3e-4 on a 0.7 m/s gait of a RABBIT-like model, whatever the time step; a gait whose
+#: swing foot grazes the ground mid-step is off by 1-30.
+PERIODIC_TOL = 1e-2
+
+
+class UnstableGait(ValueError):
+    """A walk asked of a gait whose full closed-loop Poincaré map is unstable (one line)."""
 
 
 @dataclasses.dataclass(frozen=True)
@@ -54,19 +83,77 @@ class HZDStudy:
     torque_limits: tuple | None = None
 
 
-def problem(study: HZDStudy, speed: float, cost: str) -> go.GaitProblem:
+def problem(study: HZDStudy, speed: float, cost: str, max_eigenvalue: float | None = None,
+            clearance: float = 0.0) -> go.GaitProblem:
+    """The gait design problem; ``max_eigenvalue``: bound on the restricted map's |eigenvalue|
+    (None: none); ``clearance``: m, the swing point's clearance at mid-step (0: none)."""
     return go.GaitProblem(study.stance, study.H0, study.c, order=study.order, nodes=study.nodes, speed=speed,
-                          cost=cost, torque_limits=study.torque_limits)
+                          cost=cost, torque_limits=study.torque_limits, max_eigenvalue=max_eigenvalue,
+                          clearance=clearance)
 
 
-def poincare(study: HZDStudy, vc, z_minus, controller: str) -> dict:
-    """Eigenvalues of the full closed-loop Poincaré map (autodiff) and of the restricted map."""
-    st = study.stance
-    ctrl = study.controllers[controller]
-    J = np.asarray(gw.poincare_program(vc, st, ctrl, jnp.asarray(z_minus)))
-    ev = np.linalg.eigvals(J)
+def _gains(ctrl: gw.Controller) -> dict:
+    return dict(eps=float(ctrl.eps) if ctrl.kind == "iolin" else None, kp=float(ctrl.kp), kd=float(ctrl.kd))
+
+
+def _full_map(study: HZDStudy, ctrl: gw.Controller, vc, z_minus) -> dict:
+    """The closed loop's step from z- and its Poincaré Jacobian's eigenvalues (largest first)."""
+    s, J = gw.poincare_step_program(vc, study.stance, ctrl, jnp.asarray(z_minus))
+    ev = np.linalg.eigvals(np.asarray(J))
     ev = ev[np.argsort(-np.abs(ev))]
-    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z_minus[st.n:]), nodes=study.nodes)
+    ok = int(s.status) == 0
+    residual = float(np.max(np.abs(np.asarray(s.z_minus) - np.asarray(z_minus)))) if ok else math.inf
+    return dict(ev=ev, residual=residual, status=STATUS_NAMES[int(s.status)], duration=float(s.duration))
+
+
+def _stable(full: dict) -> bool:
+    return bool(full["residual"] <= PERIODIC_TOL and np.abs(full["ev"][0]) < 1.0)
+
+
+def _not_periodic(full: dict) -> str:
+    if full["status"] != "ok":
+        return f"the closed loop from the fixed point does not reach the next touchdown ({full['status']})"
+    return (f"the closed loop from the fixed point does not return to it (touchdown after {full['duration']:.4f} s, "
+            f"max |P(z*) - z*| {full['residual']:.2g}): the swing point reaches the ground before the end of the "
+            "step; no controller gain acts on the zero dynamics, so none helps (design it with --clearance M)")
+
+
+def choose_controller(study: HZDStudy, vc, z_minus, controller: str = "iolin", rho: float | None = None):
+    """(the controller, the full map's analysis under it, the eps searched [(eps, |eig|)], a
+    one-line note on the choice). For 'iolin' the search of the module docstring; for 'pd' the
+    study's gains, unsearched."""
+    base = study.controllers[controller]
+    st = study.stance
+    if rho is None:
+        rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z_minus[st.n:]), nodes=study.nodes)
+    if controller != "iolin":
+        full = _full_map(study, base, vc, z_minus)
+        note = "the study's PD gains (not searched)"
+        return base, full, [], note if full["residual"] <= PERIODIC_TOL else f"{note}; {_not_periodic(full)}"
+    grid = [base.eps] + [e for e in EPS_GRID if e < base.eps]
+    tried: list = []
+    for eps in grid:
+        ctrl = gw.Controller("iolin", eps=float(eps), kp=base.kp, kd=base.kd)
+        full = _full_map(study, ctrl, vc, z_minus)
+        lam = float(np.abs(full["ev"][0]))
+        tried.append((float(eps), lam, ctrl, full))
+        if full["residual"] > PERIODIC_TOL:
+            return ctrl, full, [(e, m) for e, m, _, _ in tried], _not_periodic(full)
+        if abs(lam - abs(rho)) <= MATCH:
+            note = (f"eps {eps:g}: the full map's max |eig| {lam:.4f} is within {MATCH:g} of the restricted "
+                    f"map's {rho:.4f}")
+            break
+    else:
+        eps, lam, ctrl, full = min(tried, key=lambda t: t[1])
+        note = (f"no eps from {grid[0]:g} to {grid[-1]:g} brings the full map's max |eig| within {MATCH:g} of the "
+                f"restricted map's {rho:.4f}; eps {eps:g} gives the smallest, {lam:.4f}")
+    if abs(rho) >= 1.0:
+        note += "; the restricted map is itself unstable, which no output convergence mends (bound it in the design)"
+    return ctrl, full, [(e, m) for e, m, _, _ in tried], note
+
+
+def _eigen_record(controller: str, full: dict, rho: float) -> dict:
+    ev = full["ev"]
     return dict(
         controller=controller,
         max_abs_eigenvalue=float(np.abs(ev[0])),
@@ -76,18 +163,63 @@ def poincare(study: HZDStudy, vc, z_minus, controller: str) -> dict:
     )
 
 
+def poincare(study: HZDStudy, vc, z_minus, controller: str, ctrl: gw.Controller | None = None) -> dict:
+    """Eigenvalues of the full closed-loop Poincaré map (autodiff) under ``ctrl`` (default: the
+    study's controller of that name) and of the restricted map, the gains and whether the
+    closed loop is stable (its fixed point one of the closed loop, every |eigenvalue| < 1)."""
+    st = study.stance
+    ctrl = study.controllers[controller] if ctrl is None else ctrl
+    full = _full_map(study, ctrl, vc, z_minus)
+    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z_minus[st.n:]), nodes=study.nodes)
+    return dict(_eigen_record(controller, full, rho), **_gains(ctrl), stable=_stable(full),
+                closed_loop_periodicity_error=full["residual"])
+
+
+def design_poincare(study: HZDStudy, vc, z_minus, controller: str) -> dict:
+    """The record's Poincaré section of a design: the restricted map, the controller chosen by
+    :func:`choose_controller` and the full map under it."""
+    st = study.stance
+    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z_minus[st.n:]), nodes=study.nodes)
+    ctrl, full, tried, note = choose_controller(study, vc, z_minus, controller, rho)
+    return dict(_eigen_record(controller, full, rho), **_gains(ctrl), stable=_stable(full),
+                closed_loop_periodicity_error=full["residual"],
+                eps_search=[dict(eps=e, max_abs_eigenvalue=m) for e, m in tried], controller_note=note)
+
+
+def controller_of(study: HZDStudy, meta: dict, controller: str) -> gw.Controller:
+    """The controller of that name with the gains a gait file's design chose for it (its
+    ``eps``, ``kp``, ``kd`` when the design's ``controller`` is this one), else the study's."""
+    base = study.controllers[controller]
+    design = (meta or {}).get("design") or {}
+    if design.get("controller") != controller or design.get("kp") is None or design.get("kd") is None:
+        return base
+    eps = design.get("eps") if controller == "iolin" and design.get("eps") is not None else base.eps
+    return gw.Controller(controller, eps=float(eps), kp=float(design["kp"]), kd=float(design["kd"]))
+
+
+def instability(rec: dict) -> str:
+    """One line on why a gait's closed loop under the record's controller is not stable."""
+    gains = f"eps {rec['eps']:g}, " if rec.get("eps") is not None else ""
+    gains += f"kp {rec['kp']:g}, kd {rec['kd']:g}"
+    if rec["closed_loop_periodicity_error"] > PERIODIC_TOL:
+        return (f"the gait is not a fixed point of its closed loop ({rec['controller']}, {gains}): the step from "
+                f"it ends {rec['closed_loop_periodicity_error']:.2g} away from it (an early touchdown)")
+    return (f"the gait's full Poincaré map is unstable under {rec['controller']} ({gains}): max |eig| "
+            f"{rec['max_abs_eigenvalue']:.4f} >= 1 (restricted map {rec['restricted_eigenvalue']:.4f})")
+
+
 def design(study: HZDStudy, prob: go.GaitProblem, x0, controller: str = "iolin", cost: str | None = None,
            progress=None):
     """(record, virtual constraints, fixed point z-, metrics of the gait) of the gait solved
-    from the decision vector x0."""
+    from the decision vector x0, with the controller chosen for it (:func:`choose_controller`)."""
     say = progress or (lambda m: None)
     cost = prob.cost if cost is None else cost
     say(f"optimising a {prob.speed:g} m/s gait ({cost} cost), compiling first")
     res = go.solve(prob, x0, tol=study.tol)
     c, eq, ineq, met = go.evaluator(prob)(jnp.asarray(res.x))
     vc, z_minus = met["vc"], met["z_minus"]
-    say("Poincaré analysis")
-    pc = poincare(study, vc, z_minus, controller)
+    say("Poincaré analysis and the choice of the output convergence")
+    pc = design_poincare(study, vc, z_minus, controller)
     u = np.asarray(met["u"])
     rec = dict(
         robot=study.robot, cost=cost, success=res.success, message=res.message, iterations=res.iterations,
@@ -98,6 +230,7 @@ def design(study: HZDStudy, prob: go.GaitProblem, x0, controller: str = "iolin",
         periodicity_error=float(abs(eq[1])), max_constraint_violation=res.max_eq_violation,
         min_inequality=res.min_ineq,
         optimize_warm_s=res.warm_s, optimize_cold_s=res.cold_s, **pc,
+        max_eigenvalue_bound=prob.max_eigenvalue, clearance_m=prob.clearance,
     )
     return rec, vc, z_minus, met
 
@@ -112,12 +245,20 @@ def save_gait(study: HZDStudy, path, vc, z_minus, rec: dict, extra: dict | None 
 
 
 def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: float = 0.0,
-         controller: str = "iolin", seed: int = 0, progress=None):
+         controller: str = "iolin", seed: int = 0, progress=None, walk_anyway: bool = False):
     """(record, the walk's steps (numpy), initial state z0) of ``steps`` closed-loop steps from
-    the fixed point z_star perturbed as z0 = z* (1 + perturb N(0, 1))."""
+    the fixed point z_star perturbed as z0 = z* (1 + perturb N(0, 1)), under the controller
+    with the gait's gains (:func:`controller_of`). The Poincaré analysis comes first: a gait
+    unstable under that controller raises :class:`UnstableGait` (one line), or with
+    ``walk_anyway`` is walked after one line of warning through ``progress``."""
     say = progress or (lambda m: None)
     st = study.stance
-    ctrl = study.controllers[controller]
+    ctrl = controller_of(study, meta, controller)
+    pc = poincare(study, vc, z_star, controller, ctrl)  # first: an unstable gait is refused in one line
+    if not pc["stable"]:
+        if not walk_anyway:
+            raise UnstableGait(instability(pc))
+        say(f"warning: {instability(pc)}; walking it anyway")
     rng = np.random.default_rng(seed)
     z0 = np.asarray(z_star) * (1.0 + perturb * rng.standard_normal(z_star.shape))
     say(f"walking {steps} steps ({controller}), compiling first")
@@ -130,8 +271,6 @@ def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: floa
     dur, length = w.duration[ok], w.step_length[ok]
     mg = float(total_mass(st.model) * st.model.gravity)
     dist = float(np.sum(length))
-    say("Poincaré analysis")
-    pc = poincare(study, vc, z_star, controller)
     dev = np.linalg.norm(w.z_minus - np.asarray(z_star), axis=1)
     rec = dict(
         robot=study.robot, controller=controller, perturb=perturb, seed=seed,
@@ -147,7 +286,7 @@ def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: floa
         final_deviation=float(dev[n_ok - 1]) if n_ok else None,
         deviation_per_step=[float(v) for v in dev[:n_ok]],
         gait_speed_mps=(meta.get("design") or {}).get("speed_mps"),
-        wall_s=wall,
+        wall_s=wall, eps=pc["eps"], kp=pc["kp"], kd=pc["kd"], stable=pc["stable"],
     )
     return rec, w, z0
 
@@ -159,9 +298,15 @@ def summary_optimize(r: dict) -> str:
         f"speed {r['speed_mps']:.4f} m/s, step length {r['step_length_m']:.4f} m, period {r['period_s']:.4f} s",
         f"cost of transport c_mt {r['cmt']:.4f}, torque cost {r['torque_cost']:.1f} N^2 m s",
         f"peak torques {', '.join(f'{v:.1f}' for v in r['peak_torques_nm'])} N m",
-        f"Poincaré ({r['controller']}): max |eig| {r['max_abs_eigenvalue']:.4f}; restricted map {r['restricted_eigenvalue']:.4f}",
+        f"Poincaré ({r['controller']}): max |eig| {r['max_abs_eigenvalue']:.4f}; restricted map {r['restricted_eigenvalue']:.4f}"
+        + (f" (bounded by {r['max_eigenvalue_bound']:g})" if r.get("max_eigenvalue_bound") is not None else ""),
+        f"controller: {_gain_text(r)}: {'stable' if r['stable'] else 'NOT stable'}; {r['controller_note']}",
         f"solve time: warm {r['optimize_warm_s']:.2f} s, cold {r['optimize_cold_s']:.1f} s (incl. compilation)",
     ])
+
+
+def _gain_text(r: dict) -> str:
+    return (f"eps {r['eps']:g}, " if r.get("eps") is not None else "") + f"kp {r['kp']:g}, kd {r['kd']:g}"
 
 
 def summary_walk(r: dict) -> str:
@@ -174,5 +319,6 @@ def summary_walk(r: dict) -> str:
             f"c_mt {r['cmt']:.4f}, tracking rms {r['tracking_rms_rad']:.2e} rad",
             f"distance to the fixed point: {r['initial_deviation']:.2e} at start, {r['final_deviation']:.2e} after the last step",
         ]
-    lines.append(f"Poincaré max |eig| {r['max_abs_eigenvalue']:.4f} (restricted map {r['restricted_eigenvalue']:.4f})")
+    lines.append(f"Poincaré max |eig| {r['max_abs_eigenvalue']:.4f} (restricted map {r['restricted_eigenvalue']:.4f}; "
+                 f"{_gain_text(r)}: {'stable' if r['stable'] else 'NOT stable'})")
     return "\n".join(lines)

@@ -27,10 +27,15 @@ from bipedlab.sim import hybrid
 from bipedlab.sim.rollout import OK
 
 
+@functools.partial(jax.tree_util.register_dataclass, data_fields=["eps", "kp", "kd"], meta_fields=["kind"])
 @dataclasses.dataclass(frozen=True)
 class Controller:
     """kind: 'iolin' (eq. 42) or 'pd' (u* feedforward + PD on y); eps, kp, kd as in eq. 42
-    for 'iolin'; for 'pd', u = u* - kp y - kd yd with kp N m/rad, kd N m s/rad."""
+    for 'iolin'; for 'pd', u = u* - kp y - kd yd with kp N m/rad, kd N m s/rad.
+
+    A pytree whose gains are its leaves and whose kind is static: the compiled programs below
+    take the gains as traced inputs, so one program per kind serves every gain (and a batch of
+    controllers, the gains stacked, is one ``vmap``)."""
 
     kind: str = "iolin"
     eps: float = 0.1
@@ -158,10 +163,26 @@ def poincare_jacobian(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3
     return jax.jacfwd(lambda z: step(vc, st, ctrl, z, h).z_minus)(z_minus)
 
 
-#: compiled forms with the gait (virtual constraints), the model and the state traced: one
-#: program per controller, step count and time step serves every gait of a robot
-walk_program = jax.jit(walk, static_argnames=("ctrl", "steps", "h", "max_time", "min_height"))
-poincare_program = jax.jit(poincare_jacobian, static_argnames=("ctrl", "h"))
+def poincare_step_and_jacobian(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3):
+    """(the step P from z-, d P / d z- there): the map's value with its Jacobian, one
+    forward-mode pass. A fixed point of the design is one of the closed loop only when the
+    step returns to it (status OK, ``z_minus`` equal to z-, the duration the design's period):
+    on Z the controller's gains do not act, so a step that ends elsewhere from the fixed point
+    (a swing point grazing the ground mid-step touches down early) does so for every gain."""
+    def value(z):
+        s = step(vc, st, ctrl, z, h)
+        return s.z_minus, s
+
+    J, s = jax.jacfwd(value, has_aux=True)(z_minus)
+    return s, J
+
+
+#: compiled forms with the gait (virtual constraints), the model, the controller's gains and
+#: the state traced: one program per controller kind, step count and time step serves every
+#: gait and every gain of a robot
+walk_program = jax.jit(walk, static_argnames=("steps", "h", "max_time", "min_height"))
+poincare_program = jax.jit(poincare_jacobian, static_argnames=("h",))
+poincare_step_program = jax.jit(poincare_step_and_jacobian, static_argnames=("h",))
 
 
 def poincare_jacobian_fd(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3,

@@ -39,6 +39,10 @@ def _optimize_arguments(p) -> None:
     p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
     p.add_argument("--controller", choices=CONTROLLERS, default="iolin", help="controller for the Poincaré analysis")
+    p.add_argument("--max-eigenvalue", type=float_in(0.01, 0.999), default=None, metavar="R",
+                   help="bound the restricted Poincaré map's |eigenvalue| by R inside the design (default: no bound)")
+    p.add_argument("--clearance", type=float_in(0.0, 0.5), default=0.0, metavar="M",
+                   help="the swing foot at least M metres above the ground at mid-step (default 0: no bound)")
     add_save(p, "the gait (for walk --gait FILE)")
     _out(p)
 
@@ -46,7 +50,8 @@ def _optimize_arguments(p) -> None:
 def _optimize(args, progress):
     from bipedlab.robots.five_link import study as hz
 
-    rec = hz.optimize(args.speed, args.cost, args.controller, save=args.save, out=args.out, progress=progress)
+    rec = hz.optimize(args.speed, args.cost, args.controller, save=args.save, out=args.out, progress=progress,
+                      max_eigenvalue=args.max_eigenvalue, clearance=args.clearance)
     return rec, hz.summary_optimize
 
 
@@ -58,6 +63,8 @@ def _walk_arguments(p) -> None:
     p.add_argument("--controller", choices=CONTROLLERS, default=None, help="iolin | pd (default iolin)")
     p.add_argument("--gait", type=text, metavar="GAIT", help="a gait file from optimize --save (default: the shipped gait)")
     p.add_argument("--seed", type=SEED, default=0, help="seed of the perturbation")
+    p.add_argument("--walk-anyway", action="store_true",
+                   help="walk a gait whose closed loop is unstable under its controller (refused otherwise)")
     _out(p)
 
 
@@ -73,8 +80,11 @@ def _walk(args, progress):
         hz.load_gait(args.gait)
     except ValueError as e:
         raise UsageError(str(e)) from None
-    rec = hz.walk(args.steps or 50, args.perturb, args.controller or "iolin", args.gait, args.seed, out=args.out,
-                  progress=progress)
+    try:
+        rec = hz.walk(args.steps or 50, args.perturb, args.controller or "iolin", args.gait, args.seed, out=args.out,
+                      progress=progress, walk_anyway=args.walk_anyway)
+    except ValueError as e:  # a gait unstable under its controller
+        raise UsageError(str(e)) from None
     return rec, hz.summary_walk
 
 

@@ -49,9 +49,11 @@ def poincare(vc, z_minus, controller: str) -> dict:
 
 
 def optimize(speed: float = 0.8, cost: str = "torque", controller: str = "iolin", save=None,
-             out=None, progress=None) -> dict:
+             out=None, progress=None, max_eigenvalue: float | None = None, clearance: float = 0.0) -> dict:
+    """The design record (:func:`bipedlab.gait.study.design`); ``max_eigenvalue`` bounds the
+    restricted map's |eigenvalue| and ``clearance`` (m) lifts the swing point at mid-step."""
     s = study()
-    prob = hzd_study.problem(s, speed, cost)
+    prob = hzd_study.problem(s, speed, cost, max_eigenvalue, clearance)
     rec, vc, z_minus, met = hzd_study.design(s, prob, initial_guess(prob), controller, cost, progress)
     if save:
         hzd_study.save_gait(s, save, vc, z_minus, rec)
@@ -75,16 +77,23 @@ def load_gait(path=None):
 
 
 def walk(steps: int = 50, perturb: float = 0.0, controller: str = "iolin", gait=None, seed: int = 0,
-         out=None, progress=None) -> dict:
+         out=None, progress=None, walk_anyway: bool = False) -> dict:
+    """The walk record (:func:`bipedlab.gait.study.walk`: the gait's own gains; an unstable gait
+    raises :class:`bipedlab.gait.study.UnstableGait` naming the gait file and the ``--walk-anyway`` that
+    walks it, unless ``walk_anyway``)."""
     vc, z_star, meta = load_gait(gait)
     s = study()
-    rec, w, z0 = hzd_study.walk(s, vc, z_star, meta, steps, perturb, controller, seed, progress)
+    try:
+        rec, w, z0 = hzd_study.walk(s, vc, z_star, meta, steps, perturb, controller, seed, progress, walk_anyway)
+    except hzd_study.UnstableGait as e:
+        raise hzd_study.UnstableGait(f"{gait or SHIPPED}: {e}; --walk-anyway walks it") from None
     if out:
         import jax.numpy as jnp
 
         from bipedlab.robots.five_link import plots as hzd_plots
 
-        hzd_plots.walk_figures(out, vc, s.stance, s.controllers[controller], jnp.asarray(z0), w)
+        ctrl = hzd_study.controller_of(s, meta, controller)
+        hzd_plots.walk_figures(out, vc, s.stance, ctrl, jnp.asarray(z0), w)
     return rec
 
 

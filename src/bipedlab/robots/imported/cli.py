@@ -14,6 +14,8 @@ STEPS = int_in(1, 10_000)
 SPEED = float_in(0.1, 2.0)
 PERTURB = float_in(0.0, 1.0)
 PLANES = ["xz", "yz", "zx", "zy", "xy", "yx"]
+EIGENVALUE = float_in(0.01, 0.999)
+CLEARANCE = float_in(0.0, 0.5)
 
 
 def _file(p) -> None:
@@ -45,6 +47,10 @@ def _optimize_arguments(p) -> None:
     p.add_argument("--cost", choices=["torque", "cmt"], default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
     p.add_argument("--controller", choices=CONTROLLERS, default="iolin", help="controller for the Poincaré analysis")
+    p.add_argument("--max-eigenvalue", type=EIGENVALUE, default=None, metavar="R",
+                   help="bound the restricted Poincaré map's |eigenvalue| by R inside the design (default: no bound)")
+    p.add_argument("--clearance", type=CLEARANCE, default=0.0, metavar="M",
+                   help="the swing foot at least M metres above the ground at mid-step (default 0: no bound)")
     add_save(p, "the gait (for walk model FILE --gait GAIT)")
 
 
@@ -52,7 +58,8 @@ def _optimize(args, progress):
     from bipedlab.robots.imported import study
 
     rec = _study(study.optimize, args.file, args.stance, args.swing, args.speed, args.cost, args.controller,
-                 save=args.save, plane=args.plane, progress=progress)
+                 save=args.save, plane=args.plane, progress=progress, max_eigenvalue=args.max_eigenvalue,
+                 clearance=args.clearance)
     return rec, study.summary_optimize
 
 
@@ -65,6 +72,8 @@ def _walk_arguments(p) -> None:
                    help="relative size S of a random offset of the initial state: z0 = z* (1 + S N(0,1))")
     p.add_argument("--controller", choices=CONTROLLERS, default="iolin", help="iolin | pd")
     p.add_argument("--seed", type=SEED, default=0, help="seed of the perturbation")
+    p.add_argument("--walk-anyway", action="store_true",
+                   help="walk a gait whose closed loop is unstable under its controller (refused otherwise)")
 
 
 def _walk_validate(args) -> None:
@@ -78,7 +87,7 @@ def _walk(args, progress):
 
     _study(study.load_gait, args.file, args.gait, args.plane)
     rec = _study(study.walk, args.file, args.gait, args.steps, args.perturb, args.controller, args.seed,
-                 plane=args.plane, progress=progress)
+                 plane=args.plane, progress=progress, walk_anyway=args.walk_anyway)
     return rec, study.summary_walk
 
 

@@ -47,9 +47,11 @@ def study(path, gait, steps: int = 10, controller: str = "iolin", push_max: floa
     from bipedlab.gait import walking as gw
     from bipedlab.robots.imported import study as imported_study
 
-    s, vc, z_star, _ = imported_study.load_gait(path, gait, plane)
+    from bipedlab.gait import study as hzd_study
+
+    s, vc, z_star, meta = imported_study.load_gait(path, gait, plane)
     st = s.study.stance
-    ctrl = s.study.controllers[controller]
+    ctrl = hzd_study.controller_of(s.study, meta, controller)  # the gait's own gains
     hip = s.legs.stance_path[0]
     ax = (rb.Axis("push_x", -push_max, push_max, bins, "N s", "forward impulse at the hip"),
           rb.Axis("push_y", -push_max, push_max, bins, "N s", "upward impulse at the hip"))

@@ -35,9 +35,12 @@ def _extra(s: robot.Setup, path) -> dict:
 
 
 def optimize(path, stance: str, swing: str, speed: float = 0.8, cost: str = "torque", controller: str = "iolin",
-             save=None, plane: str = "xz", progress=None) -> dict:
+             save=None, plane: str = "xz", progress=None, max_eigenvalue: float | None = None,
+             clearance: float = 0.0) -> dict:
+    """The design record (:func:`bipedlab.gait.study.design`); ``max_eigenvalue`` bounds the
+    restricted map's |eigenvalue| and ``clearance`` (m) lifts the swing point at mid-step."""
     s = robot.load(resolve(path), stance, swing, plane)
-    prob = hzd_study.problem(s.study, speed, cost)
+    prob = hzd_study.problem(s.study, speed, cost, max_eigenvalue, clearance)
     rec, vc, z_minus, met = hzd_study.design(s.study, prob, robot.initial_guess(s, prob), controller, cost, progress)
     rec.update(_extra(s, path))
     if save:
@@ -63,9 +66,16 @@ def load_gait(path: str, gait: str, plane: str = "xz"):
 
 
 def walk(path, gait, steps: int = 50, perturb: float = 0.0, controller: str = "iolin", seed: int = 0,
-         plane: str = "xz", progress=None) -> dict:
+         plane: str = "xz", progress=None, walk_anyway: bool = False) -> dict:
+    """The walk record (:func:`bipedlab.gait.study.walk`: the gait's own gains; an unstable gait
+    raises :class:`bipedlab.gait.study.UnstableGait` naming the gait file and the ``--walk-anyway`` that
+    walks it, unless ``walk_anyway``)."""
     s, vc, z_star, meta = load_gait(path, gait, plane)
-    rec, _, _ = hzd_study.walk(s.study, vc, z_star, meta, steps, perturb, controller, seed, progress)
+    try:
+        rec, _, _ = hzd_study.walk(s.study, vc, z_star, meta, steps, perturb, controller, seed, progress,
+                                   walk_anyway)
+    except hzd_study.UnstableGait as e:
+        raise hzd_study.UnstableGait(f"{gait}: {e}; --walk-anyway walks it") from None
     rec.update(_extra(s, path))
     return rec
 
