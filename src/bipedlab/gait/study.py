@@ -56,9 +56,9 @@ EPS_GRID = (0.4, 0.3, 0.2, 0.15, 0.1, 0.07, 0.05, 0.035, 0.025, 0.018, 0.0125, 0
 #: How close the full map's dominant |eigenvalue| must come to the restricted map's.
 MATCH = 0.05
 #: Largest max |P(z*) - z*| (rad, rad/s) of a closed-loop fixed point: the closed loop (RK4 in time,
-#: 1 ms) leaves the design's fixed point (RK4 in the phase, NODES steps) by 3e-7 on the five-link
-#: gait and 1.3e-4 on a 0.7 m/s gait of a RABBIT-like model, whatever the time step; a gait whose
-#: swing foot grazes the ground mid-step is off by 1-30.
+#: 1 ms) leaves the design's fixed point (RK4 in the phase, NODES steps) by 3e-7 on the shipped
+#: planar test gait and 1.3e-4 on a 0.7 m/s gait of a heavier five-body model, whatever the time
+#: step; a gait whose swing foot grazes the ground mid-step is off by 1-30.
 PERIODIC_TOL = 1e-2
 
 

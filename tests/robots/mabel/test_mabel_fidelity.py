@@ -35,7 +35,7 @@ def test_paper_push_breaks_the_friction_cone_without_a_fall():
     completes its steps. The push speeds the robot up: the next step is faster than the
     unpushed ones (by more than 10 %, the paper's push gave 45 % on the robot and about half of
     that here; 10 % is far outside the 1-2 % step-to-step spread of the unpushed walk)."""
-    r = wm.walk("nominal", "pdff", 4, push="78.0@1")
+    r = wm.walk("nominal", "pdff", 4, push=(78.0, 1))
     assert r["fell"] is False and r["steps_completed"] == 4
     assert r["friction_cone_exceeded"] is True and r["friction_cone_exceeded_step"] in (1, 2)
     assert r["max_friction_ratio"] > sw.MU
@@ -88,7 +88,7 @@ def test_reduced_push_experiment_is_the_full_ones_paper_force_runs():
     assert "force_for_plus_45pct_n" not in r and r["push_step"] == 2
     assert [(x["controller"], x["force_n"]) for x in r["runs"]] == [("pdff", f) for f in wx.PUSHES]
     for x in r["runs"]:
-        direct = wm.walk("nominal", "pdff", 5, push=f"{x['force_n']}@2")
+        direct = wm.walk("nominal", "pdff", 5, push=(x["force_n"], 2))
         assert x["speed_per_step"] == direct["speed_per_step"]
         assert np.sign(x["peak_speed_change"]) == np.sign(x["force_n"])
     with pytest.raises(ValueError, match="both"):

@@ -116,7 +116,7 @@ def test_push_on_the_full_plant_speeds_up_and_slips_without_a_fall():
     PD + feedforward on the 13-DoF plant: the steps after it are faster than the unpushed ones
     (by more than 10 %: the paper's push gave 45 % on the robot), the run is no fall, and the
     push is in the log (78 N while it acts, 0 otherwise)."""
-    r = wm.walk("paper-nominal", "pdff", 6, push="78.0@2", plant="full")
+    r = wm.walk("paper-nominal", "pdff", 6, push=(78.0, 2), plant="full")
     assert r["fell"] is False and r["steps_completed"] == 6
     sp = r["speed_per_step"]
     assert max(sp[2:4]) > 1.10 * sp[1]

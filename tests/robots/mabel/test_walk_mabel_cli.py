@@ -88,6 +88,29 @@ def test_gait_file_of_another_format_is_refused(tmp_path, capsys, no_walk):
     expect_usage_error(["walk", "mabel", "--gait", str(path), "--json"], capsys, needle=str(path))
 
 
+def test_push_is_parsed_once_and_the_gait_loaded_once(tmp_path, monkeypatch, capsys):
+    """``walk mabel --push=-71@2 --gait FILE``: the option reaches the study as the typed pair
+    (-71.0, 2) argparse read, and the gait file is read once (by the command, which hands the
+    loaded gait to the walk); the walk itself reads no gait and parses no push."""
+    path = tmp_path / "g.json"
+    path.write_text(wm.gaitfile.shipped_text("bipedlab.robots.mabel", "mabel_nominal")[0])
+    loads, parses, seen = [], [], {}
+    real_load = wm.load_gait
+    monkeypatch.setattr(wm, "load_gait", lambda g: loads.append(g) or real_load(g))
+    monkeypatch.setattr(wm, "parse_push", lambda t: parses.append(t))
+
+    def run_walk(gait, controller, steps, push, *args, loaded=None, **kw):
+        seen.update(gait=gait, push=push, loaded=loaded)
+        raise KeyboardInterrupt  # stop before simulating: 130, one line
+
+    monkeypatch.setattr(cli, "_enable_compile_cache", lambda: None)
+    monkeypatch.setattr(wm, "run_walk", run_walk)
+    assert cli.main(["walk", "mabel", "--steps", "3", "--push=-71@2", "--gait", str(path)]) == 130
+    assert loads == [str(path)] and parses == []
+    assert seen["gait"] == str(path) and seen["push"] == (-71.0, 2)
+    assert seen["loaded"][2]["design"] == real_load(str(path))[2]["design"]
+
+
 def test_parse_push():
     assert wm.parse_push(None) == (0.0, -1)
     assert wm.parse_push("78@10") == (78.0, 10)

@@ -111,16 +111,15 @@ def _walk_validate(args) -> None:
 def _walk(args, progress):
     from bipedlab.robots.mabel.walking import study as wm
 
-    gait = args.gait or "nominal"
-    try:
-        wm.load_gait(gait)
+    gait = args.gait or catalog.DEFAULT_GAIT
+    try:  # every field of the gait, before anything compiles; the walk takes it as loaded
+        loaded = wm.load_gait(gait)
     except ValueError as e:
         raise UsageError(str(e)) from None
-    push = None if args.push is None else f"{args.push[0]!r}@{args.push[1]}"
     lean_steps = 20 if args.lean_steps is None else args.lean_steps
-    rec = wm.walk(gait, args.controller or "pdff", args.steps or 100, push=push, eta=args.impact_scale,
-                  sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean, lean_steps=lean_steps,
-                  plant=args.plant)
+    rec = wm.walk(gait, args.controller or catalog.DEFAULT_CONTROLLER, args.steps or 100, push=args.push,
+                  eta=args.impact_scale, sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean,
+                  lean_steps=lean_steps, plant=args.plant, loaded=loaded)
     return rec, wm.summary_walk
 
 

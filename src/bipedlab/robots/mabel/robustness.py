@@ -79,7 +79,7 @@ PUSH_STEP = 2
 
 def walking_study(steps: int = 6, controller: str = "decentralized", gait: str = "nominal", max_force: float = 80.0,
                   perturb: float = 0.0, noise_counts: float = 0.0, sensing: str = "encoders", bins: int = 6,
-                  push_step: int = PUSH_STEP):
+                  push_step: int = PUSH_STEP, loaded=None):
     """Pushes on MABEL's walking loop: each trial pushes the hip horizontally with a force in
     [-max_force, max_force] N (positive forward) from a phase in [0.1, 0.9] of step
     ``push_step`` (in nominal periods) until that step's touchdown, starts from the gait's
@@ -87,7 +87,9 @@ def walking_study(steps: int = 6, controller: str = "decentralized", gait: str =
     encoders with Gaussian noise of ``noise_counts`` counts added per sample. The loop is the
     one of ``walk mabel`` (the stages of :mod:`.walking.loop` in a
     :class:`bipedlab.sim.loop.SampledLoop`, the sensor stage wrapped for the noise), run for
-    ``steps`` nominal periods plus 20 %; a trial survives when it does not fall in that time."""
+    ``steps`` nominal periods plus 20 %; a trial survives when it does not fall in that time.
+    ``loaded``: what :func:`~bipedlab.robots.mabel.walking.study.load_gait` returned for
+    ``gait``, if the caller has loaded it already."""
     import dataclasses
     import math
 
@@ -101,7 +103,7 @@ def walking_study(steps: int = 6, controller: str = "decentralized", gait: str =
     from bipedlab.robots.mabel.walking import study as ws
     from bipedlab.sim import loop as sl
 
-    vc, gains, rec = ws.load_gait(gait)
+    vc, gains, rec = ws.load_gait(gait) if loaded is None else loaded
     m = wk.walking_model()
     period = float(rec["design"]["period"])
     z_plus = jnp.asarray(rec["z_plus"], float)
@@ -174,12 +176,12 @@ def _walk_build(args, progress):
     from bipedlab.commands import UsageError
     from bipedlab.robots.mabel.walking import study as ws
 
-    try:  # every field of the gait, before anything compiles
-        ws.load_gait(args.gait)
+    try:  # every field of the gait, before anything compiles; the study takes it as loaded
+        loaded = ws.load_gait(args.gait)
     except ValueError as e:
         raise UsageError(str(e)) from None
     return walking_study(args.steps, args.controller, args.gait, args.max_force, args.perturb, args.noise,
-                         args.sensing, args.bins)
+                         args.sensing, args.bins, loaded=loaded)
 
 
 WALKING = options.command("mabel", "MABEL walking: push force x push timing map, initial-state perturbations, "

@@ -170,7 +170,7 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
     seen = {}
 
     def change_of(force):
-        r = _walk("nominal", controller, push_step + 1 + SEARCH_AFTER, None, push=f"{force!r}@{push_step}")
+        r = _walk("nominal", controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step))
         c = peak_change(r["speed_per_step"], push_step, ref, direction)
         seen[float(force)] = (c, r["fell"], r["steps_completed"])
         # a walk that falls short of the target before its fall tells nothing of the change the
@@ -178,7 +178,7 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
         return None if r["fell"] and (c is None or abs(c - target) > tol) else c
 
     force, change, walks, ok = bracket_force(change_of, target, f0, tol, max_walks)
-    r = _walk("nominal", controller, steps, progress, push=f"{force!r}@{push_step}")
+    r = _walk("nominal", controller, steps, progress, push=(force, push_step))
     row = _push_row(r, controller, force, push_step, ref, direction)
     return dict(target_change=target, converged=ok, tolerance=tol, walks=[
         dict(force_n=f, speed_change=seen[f][0], fell=seen[f][1], steps_completed=seen[f][2]) for f, _ in walks],
@@ -222,7 +222,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
             continue
         ref = refs[controller]
         for force in pushes:
-            r = _walk("nominal", controller, steps, progress, push=f"{force}@{push_step}",
+            r = _walk("nominal", controller, steps, progress, push=(force, push_step),
                       out=f"{out}/{controller}_{force:+.0f}N" if out else None)
             row = _push_row(r, controller, force, push_step, ref, np.sign(force))
             peak, back = _recovery(r["speed_per_step"], push_step, ref)
@@ -242,7 +242,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     plus, minus = searches[:2]
     at_pdff = []
     for x in (plus, minus):
-        r = _walk("nominal", "decentralized", steps, progress, push=f"{x['force_n']!r}@{push_step}")
+        r = _walk("nominal", "decentralized", steps, progress, push=(x["force_n"], push_step))
         at_pdff.append(dict(_push_row(r, "decentralized", x["force_n"], push_step, refs["decentralized"],
                                       np.sign(x["target_change"])), target_change=x["target_change"]))
     rec.update(force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],

@@ -294,16 +294,19 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
 
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
-             progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance", torque_limits=None):
-    """Simulate; returns (final loop state, logs, gait record). On the ``full`` plant there is
-    no impact map to scale (the ground's compliance makes the impact). ``torque_limits`` (N m,
-    actuator order): the controller's saturation instead of the gait's (data of the compiled
-    loop, so any limits share one program)."""
+             progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance", torque_limits=None,
+             loaded=None):
+    """Simulate; returns (final loop state, logs, gait record). ``push``: (force N, step index),
+    step -1 for none. On the ``full`` plant there is no impact map to scale (the ground's
+    compliance makes the impact). ``torque_limits`` (N m, actuator order): the controller's
+    saturation instead of the gait's (data of the compiled loop, so any limits share one
+    program). ``loaded``: what :func:`load_gait` returned for ``gait``, for a caller that has
+    loaded it already (it is then not read again)."""
     if plant not in PLANTS:
         raise ValueError(f"plant must be one of {', '.join(PLANTS)}, got {plant!r}")
     if plant == "full" and eta != 1.0:
         raise ValueError("the full plant takes no impact scaling (its impact is the compliant ground's)")
-    vc, gains, rec = load_gait(gait)
+    vc, gains, rec = load_gait(gait) if loaded is None else loaded
     if torque_limits is not None:
         gains = gains.replace(limit=jnp.asarray(torque_limits, float))
     m = wk.walking_model()
@@ -351,13 +354,19 @@ def metrics(s, log) -> dict:
 
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
-         out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance") -> dict:
-    """Closed-loop walk; ``lean_deg`` leans the torso forward (swing leg's absolute angle kept)
-    in ``lean_steps`` equal increments, one per step, as the experimenters did to walk faster.
-    ``plant``: the stance model or the 13-DoF model (:data:`PLANTS`); the record gives the
-    realised ``cmt`` beside the gait's designed ``cmt_designed``."""
-    force, step = parse_push(push)
-    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps, plant)
+         out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance",
+         loaded=None) -> dict:
+    """Closed-loop walk; ``push``: (force N, step index) of a horizontal push on the hip over the
+    second half of that step (:func:`parse_push` reads 'FORCE@STEP'), or None; ``lean_deg`` leans
+    the torso forward (swing leg's absolute angle kept) in ``lean_steps`` equal increments, one
+    per step, as the experimenters did to walk faster. ``plant``: the stance model or the 13-DoF
+    model (:data:`PLANTS`); the record gives the realised ``cmt`` beside the gait's designed
+    ``cmt_designed``. ``loaded``: what :func:`load_gait` returned for ``gait``, if the caller has
+    loaded it already."""
+    force, step = (0.0, -1) if push is None else (float(push[0]), int(push[1]))
+    loaded = load_gait(gait) if loaded is None else loaded
+    s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps, plant,
+                           loaded=loaded)
     r = dict(robot="mabel", gait=gait, plant=plant, controller=controller, sensing=sensing, impact_scale=eta,
              torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
              push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log))
@@ -385,7 +394,7 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
         if plant == "full":
             from bipedlab.robots.mabel.walking import gap_plots
 
-            _, ref_log, _ = run_walk(gait, controller, 12, eta=gap_plots.FIG20_ETA, sensing="ideal")
+            _, ref_log, _ = run_walk(gait, controller, 12, eta=gap_plots.FIG20_ETA, sensing="ideal", loaded=loaded)
             r["figures"] += gap_plots.fig20(out, log, ref_log)
     return r
 
