@@ -168,7 +168,7 @@ def initialize(coordinator: str | None = None, num_processes: int | None = None,
                                    process_id=process_id)
     if timeout is not None and _supports("initialization_timeout"):
         kwargs["initialization_timeout"] = int(math.ceil(timeout)) + JAX_GRACE
-    with _stdout_to_stderr():  # the collectives library announces its peers on stdout (fd 1)
+    with stdout_to_stderr():  # the collectives library announces its peers on stdout (fd 1)
         finished, error = _join(kwargs, timeout)
         if not finished:
             found = reach(coordinator) if coordinator is not None and process_id else None
@@ -181,7 +181,7 @@ def initialize(coordinator: str | None = None, num_processes: int | None = None,
 
 
 @contextlib.contextmanager
-def _stdout_to_stderr():
+def stdout_to_stderr():
     """File descriptor 1 pointed at stderr meanwhile, so that what native libraries print
     keeps stdout for the command's own output (``--json``)."""
     sys.stdout.flush()

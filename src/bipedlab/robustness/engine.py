@@ -145,7 +145,7 @@ def run(study: Study, trials: int, seed: int = 0, chunk: int | None = None, out=
     mapped = dist.sharded_map(study.trial, mesh)
     pieces, t_run = [], 0.0
     # several processes: the collectives library announces its peers on fd 1 at the first gather
-    with dist._stdout_to_stderr() if jax.process_count() > 1 else contextlib.nullcontext():
+    with dist.stdout_to_stderr() if jax.process_count() > 1 else contextlib.nullcontext():
         compile_s = mapped.compile({k: v[:block] for k, v in padded.items()})
         for start in range(0, total, block):
             piece = {k: v[start:start + block] for k, v in padded.items()}
