@@ -161,7 +161,7 @@ def state_frames(model: Coupled, q, qd):
 
 def dense(H: list, like) -> jax.Array:
     """Symmetric dense matrix from a lower triangle of scalars."""
-    return dyn._dense(H, like)
+    return dyn.dense(H, like)
 
 
 def mass_matrix(model: Coupled, q) -> jax.Array:
@@ -178,14 +178,14 @@ def point_force(model: Coupled, fr: kin.Frames, point: int, F) -> list:
     """Generalised force T^T J^T F of a world force F = (Fx, Fy) at tree point index."""
     tree = model.tree
     b = tree.point_bodies[point]
-    p = kin._point_world(tree, fr, b, kin._point_offset(tree, point))
-    return pull_back(model.T, kin._generalized_force(tree, fr, b, p, F))
+    p = kin.point_world(tree, fr, b, kin.point_offset(tree, point))
+    return pull_back(model.T, kin.generalized_force(tree, fr, b, p, F))
 
 
 def point_motion(model: Coupled, fr: kin.Frames, vel: kin.Velocities, point: int):
     """(position, velocity) of a tree point as tuples of scalars."""
     tree = model.tree
-    p, v, _ = kin.point_velocity_accel(tree, fr, vel, tree.point_bodies[point], kin._point_offset(tree, point))
+    p, v, _ = kin.point_velocity_accel(tree, fr, vel, tree.point_bodies[point], kin.point_offset(tree, point))
     return p, v
 
 

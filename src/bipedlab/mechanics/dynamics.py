@@ -18,7 +18,8 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.mechanics import kinematics as kin
-from bipedlab.mechanics.kinematics import Frames, Velocities, _add, _cross, _dot, _perp, _scale, _sub
+from bipedlab.mechanics.kinematics import Frames, Velocities
+from bipedlab.mechanics.planar import add, cross, dot, perp, scale, sub
 from bipedlab.mechanics.tree import PRISMATIC, Model
 
 
@@ -44,9 +45,9 @@ def _composites(model: Model, fr: Frames):
         m1, m2 = mc[p], mc[b]
         m = m1 + m2
         safe = jnp.where(m > 0, m, 1.0)  # a massless subtree's COM is irrelevant (weight 0)
-        Cn = _scale(1.0 / safe, _add(_scale(m1, C[p]), _scale(m2, C[b])))
-        d1, d2 = _sub(C[p], Cn), _sub(C[b], Cn)
-        Ic[p] = Ic[p] + Ic[b] + m1 * _dot(d1, d1) + m2 * _dot(d2, d2)
+        Cn = scale(1.0 / safe, add(scale(m1, C[p]), scale(m2, C[b])))
+        d1, d2 = sub(C[p], Cn), sub(C[b], Cn)
+        Ic[p] = Ic[p] + Ic[b] + m1 * dot(d1, d1) + m2 * dot(d2, d2)
         mc[p], C[p] = m, Cn
     return mc, C, Ic
 
@@ -76,13 +77,13 @@ def mass_matrix_entries(model: Model, fr: Frames) -> list:
         for k in chain:
             _, tk, sk = kinds[k]
             if tj == "R" and tk == "R":
-                val = I + m * _dot(_sub(c, sj), _sub(c, sk))
+                val = I + m * dot(sub(c, sj), sub(c, sk))
             elif tj == "R":
-                val = m * _dot(_perp(_sub(c, sj)), sk)
+                val = m * dot(perp(sub(c, sj)), sk)
             elif tk == "R":
-                val = m * _dot(sj, _perp(_sub(c, sk)))
+                val = m * dot(sj, perp(sub(c, sk)))
             else:
-                val = m * _dot(sj, sk)
+                val = m * dot(sj, sk)
             H[j][k] = val  # k <= j because parents precede children
     for r, support in enumerate(model.rotor_support):
         J = model.rotor_inertia[r]
@@ -101,18 +102,18 @@ def bias_entries(model: Model, fr: Frames, vel: Velocities) -> list:
     F, N = [None] * nb, [None] * nb
     for b in range(nb):
         w = vel.omega[b]
-        rc = _sub(fr.com[b], fr.origin[b])
-        ac = _add(_sub(vel.a_origin[b], _scale(w * w, rc)), g)
-        f = _scale(model.mass[b], ac)
+        rc = sub(fr.com[b], fr.origin[b])
+        ac = add(sub(vel.a_origin[b], scale(w * w, rc)), g)
+        f = scale(model.mass[b], ac)
         F[b] = f
-        N[b] = _cross(rc, f)
+        N[b] = cross(rc, f)
     for b in reversed(range(1, nb)):
         p = model.parents[b]
-        F[p] = _add(F[p], F[b])
-        N[p] = N[p] + N[b] + _cross(_sub(fr.origin[b], fr.origin[p]), F[b])
+        F[p] = add(F[p], F[b])
+        N[p] = N[p] + N[b] + cross(sub(fr.origin[b], fr.origin[p]), F[b])
     out = [F[0][0], F[0][1], N[0]]
     for b in range(1, nb):
-        out.append(_dot(fr.axis[b], F[b]) if model.joints[b] == PRISMATIC else N[b])
+        out.append(dot(fr.axis[b], F[b]) if model.joints[b] == PRISMATIC else N[b])
     return out
 
 
@@ -151,7 +152,9 @@ def ltdl_solve(H: list, rhs: list) -> list:
     return x
 
 
-def _dense(H: list, like) -> jax.Array:
+def dense(H: list, like) -> jax.Array:
+    """Symmetric dense matrix from a lower triangle of scalars (``None``: zero), each entry
+    broadcast like ``like`` (so a batch of matrices under ``vmap``)."""
     n = len(H)
     zero = jnp.zeros_like(like)
 
@@ -164,7 +167,7 @@ def _dense(H: list, like) -> jax.Array:
 
 def mass_matrix(model: Model, q) -> jax.Array:
     """Joint-space inertia matrix M(q), shape (nq, nq), symmetric positive definite."""
-    return _dense(mass_matrix_entries(model, kin.frames(model, q)), q[0])
+    return dense(mass_matrix_entries(model, kin.frames(model, q)), q[0])
 
 
 def bias(model: Model, q, qd) -> jax.Array:
@@ -191,7 +194,7 @@ def forward_dynamics(model: Model, q, qd, tau) -> jax.Array:
 def _body_velocities(model: Model, fr: Frames, vel: Velocities):
     """World COM velocity of every body."""
     return [
-        _add(vel.v_origin[b], _scale(vel.omega[b], _perp(_sub(fr.com[b], fr.origin[b]))))
+        add(vel.v_origin[b], scale(vel.omega[b], perp(sub(fr.com[b], fr.origin[b]))))
         for b in range(model.nb)
     ]
 
@@ -210,7 +213,7 @@ def kinetic_energy(model: Model, q, qd) -> jax.Array:
     vc = _body_velocities(model, fr, vel)
     T = 0.0
     for b in range(model.nb):
-        T = T + 0.5 * (model.mass[b] * _dot(vc[b], vc[b]) + model.inertia[b] * vel.omega[b] ** 2)
+        T = T + 0.5 * (model.mass[b] * dot(vc[b], vc[b]) + model.inertia[b] * vel.omega[b] ** 2)
     for r, w in enumerate(_rotor_rates(model, qd)):
         T = T + 0.5 * model.rotor_inertia[r] * w**2
     return jnp.asarray(T)
@@ -250,7 +253,7 @@ def angular_momentum(model: Model, q, qd, point) -> jax.Array:
     P = (point[0], point[1])
     L = 0.0
     for b in range(model.nb):
-        L = L + model.mass[b] * _cross(_sub(fr.com[b], P), vc[b]) + model.inertia[b] * vel.omega[b]
+        L = L + model.mass[b] * cross(sub(fr.com[b], P), vc[b]) + model.inertia[b] * vel.omega[b]
     for r, w in enumerate(_rotor_rates(model, qd)):
         L = L + model.rotor_inertia[r] * w
     return jnp.asarray(L)

@@ -14,39 +14,8 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.mechanics.planar import Vec, add, dot, perp, rot, scale, sub
 from bipedlab.mechanics.tree import PRISMATIC, Model
-
-Vec = tuple  # a planar vector as a pair of scalars (x, y)
-
-
-def _sub(a: Vec, b: Vec) -> Vec:
-    return (a[0] - b[0], a[1] - b[1])
-
-
-def _add(a: Vec, b: Vec) -> Vec:
-    return (a[0] + b[0], a[1] + b[1])
-
-
-def _scale(k, a: Vec) -> Vec:
-    return (k * a[0], k * a[1])
-
-
-def _perp(a: Vec) -> Vec:
-    """z x a: the velocity of a point at offset a on a body turning at unit rate."""
-    return (-a[1], a[0])
-
-
-def _dot(a: Vec, b: Vec):
-    return a[0] * b[0] + a[1] * b[1]
-
-
-def _cross(a: Vec, b: Vec):
-    """z-component of a x b (moment of force b applied at lever a)."""
-    return a[0] * b[1] - a[1] * b[0]
-
-
-def _rot(c, s, v: Vec) -> Vec:
-    return (c * v[0] - s * v[1], s * v[0] + c * v[1])
 
 
 @dataclasses.dataclass(frozen=True)
@@ -99,17 +68,17 @@ def frames(model: Model, q) -> Frames:
             off = (model.offset[b, 0], model.offset[b, 1])
             if model.joints[b] == PRISMATIC:
                 th = angle[p]
-                ax = _rot(cp, sp, (model.axis[b, 0], model.axis[b, 1]))
-                o = _add(_add(origin[p], _rot(cp, sp, off)), _scale(qj, ax))
+                ax = rot(cp, sp, (model.axis[b, 0], model.axis[b, 1]))
+                o = add(add(origin[p], rot(cp, sp, off)), scale(qj, ax))
             else:
                 th = angle[p] + qj
                 ax = (0.0, 0.0)
-                o = _add(origin[p], _rot(cp, sp, off))
+                o = add(origin[p], rot(cp, sp, off))
         c, s = trig[0, b], trig[1, b]
         angle.append(angles[b])
         cs.append((c, s))
         origin.append(o)
-        com.append(_add(o, _rot(c, s, (model.com[b, 0], model.com[b, 1]))))
+        com.append(add(o, rot(c, s, (model.com[b, 0], model.com[b, 1]))))
         axis.append(ax)
     return Frames(angle, cs, origin, com, axis)
 
@@ -124,14 +93,14 @@ def velocities(model: Model, fr: Frames, qd) -> Velocities:
             a = (0.0 * qd[0], 0.0 * qd[1])
         else:
             qdj = qd[model.dof_of_body(b)]
-            r = _sub(fr.origin[b], fr.origin[p])
+            r = sub(fr.origin[b], fr.origin[p])
             wp = omega[p]
-            v = _add(vo[p], _scale(wp, _perp(r)))
-            a = _sub(ao[p], _scale(wp * wp, r))
+            v = add(vo[p], scale(wp, perp(r)))
+            a = sub(ao[p], scale(wp * wp, r))
             if model.joints[b] == PRISMATIC:
                 w = wp
-                v = _add(v, _scale(qdj, fr.axis[b]))
-                a = _add(a, _scale(2.0 * wp * qdj, _perp(fr.axis[b])))
+                v = add(v, scale(qdj, fr.axis[b]))
+                a = add(a, scale(2.0 * wp * qdj, perp(fr.axis[b])))
             else:
                 w = wp + qdj
         omega.append(w)
@@ -142,7 +111,7 @@ def velocities(model: Model, fr: Frames, qd) -> Velocities:
 
 def _point_world(model: Model, fr: Frames, body: int, offset: Vec) -> Vec:
     c, s = fr.cs[body]
-    return _add(fr.origin[body], _rot(c, s, offset))
+    return add(fr.origin[body], rot(c, s, offset))
 
 
 def _point_offset(model: Model, k: int) -> Vec:
@@ -157,7 +126,7 @@ def _jacobian_columns(model: Model, fr: Frames, body: int, p: Vec) -> dict:
         if model.joints[b] == PRISMATIC:
             cols[j] = fr.axis[b]
         else:
-            cols[j] = _perp(_sub(p, fr.origin[b]))
+            cols[j] = perp(sub(p, fr.origin[b]))
     return cols
 
 
@@ -165,7 +134,7 @@ def _generalized_force(model: Model, fr: Frames, body: int, p: Vec, F: Vec) -> d
     """J(p)^T F as {coordinate: scalar} for a force F applied at world point p on body."""
     out = {}
     for j, col in _jacobian_columns(model, fr, body, p).items():
-        out[j] = _dot(col, F)
+        out[j] = dot(col, F)
     return out
 
 
@@ -198,11 +167,11 @@ def point_jacobian(model: Model, q, point: PointRef) -> jax.Array:
 
 def _point_velocity_accel(model: Model, fr: Frames, vel: Velocities, body: int, offset: Vec):
     c, s = fr.cs[body]
-    r = _rot(c, s, offset)
+    r = rot(c, s, offset)
     w = vel.omega[body]
-    v = _add(vel.v_origin[body], _scale(w, _perp(r)))
-    a = _sub(vel.a_origin[body], _scale(w * w, r))
-    return _add(fr.origin[body], r), v, a
+    v = add(vel.v_origin[body], scale(w, perp(r)))
+    a = sub(vel.a_origin[body], scale(w * w, r))
+    return add(fr.origin[body], r), v, a
 
 
 def _point_motion(model: Model, q, qd, point: PointRef):
