@@ -46,7 +46,7 @@ def scene(frames, times, ground=None, colors="k", widths=2.0, follow: bool = Fal
     """Checked, writer-independent description of an animation: frames (F, S, 2, 2), times
     (F,) from 0, duration, ground polyline or None, per-frame x shift, the view (x0, y0, x1,
     y1) in shifted world coordinates, and per-segment hex colours and widths."""
-    from bipedlab.viz.stick import _per_segment
+    from bipedlab.viz.stick import per_segment
 
     fr = as_frames(frames)
     t = np.asarray(times, dtype=float).reshape(-1)
@@ -81,8 +81,8 @@ def scene(frames, times, ground=None, colors="k", widths=2.0, follow: bool = Fal
     n = fr.shape[1]
     return dict(frames=fr, times=t - t[0], duration=float(t[-1] - t[0] + dt), dt=dt, ground=ground, shift=shift,
                 view=(x0 - pad, y0 - pad, x1 + pad, y1 + pad),
-                colors=[_hex(c) for c in _per_segment(colors, n, "colors")],
-                widths=[float(w) for w in _per_segment(widths, n, "widths")])
+                colors=[_hex(c) for c in per_segment(colors, n, "colors")],
+                widths=[float(w) for w in per_segment(widths, n, "widths")])
 
 
 def _pixels(view, size_px: int) -> tuple[int, int]:

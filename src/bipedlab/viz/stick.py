@@ -37,7 +37,7 @@ def _single(value) -> bool:
     return a.ndim == 1 and len(a) in (3, 4) and all(isinstance(v, (int, float, np.number)) for v in a)
 
 
-def _per_segment(value, n: int, name: str) -> list:
+def per_segment(value, n: int, name: str) -> list:
     """A style given once (a width, a colour) or per segment, as a list of n entries."""
     if _single(value) if name == "colors" else (value is None or np.ndim(value) == 0):
         return [value] * n
@@ -51,8 +51,8 @@ def chains(segments, colors=None, widths=None):
     """Group one frame's segments into polylines: yields (points (k, 2), color, width) with
     consecutive segments merged where one ends where the next starts and the style agrees."""
     seg = np.asarray(segments, dtype=float)
-    cs = [tuple(c) if isinstance(c, np.ndarray) else c for c in _per_segment(colors, len(seg), "colors")]
-    ws = _per_segment(widths, len(seg), "widths")
+    cs = [tuple(c) if isinstance(c, np.ndarray) else c for c in per_segment(colors, len(seg), "colors")]
+    ws = per_segment(widths, len(seg), "widths")
     pts, style = None, None
     for s, c, w in zip(seg, cs, ws):
         if pts is not None and style == (c, w) and np.array_equal(pts[-1], s[0]):
