@@ -12,7 +12,7 @@ from pathlib import Path
 import bipedlab
 from bipedlab.outputs import dumps_json
 from bipedlab.report import html, values
-from bipedlab.report.spec import Paper, Skip
+from bipedlab.report.spec import Measured, Paper, Skip
 
 
 def _device() -> dict:
@@ -47,36 +47,66 @@ def metadata(quick: bool, wall_s: float, cpu_s: float) -> dict:
 
 
 def rows_for(paper: Paper, records: dict, quick: bool) -> list:
-    """The paper's rows with the simulated values and the agrees / departs verdicts."""
+    """The paper's rows with the simulated values and the verdicts (:data:`values.VERDICTS`).
+
+    Each row carries ``agrees`` (True / False / None: agreement with the paper; None for a
+    self-check, whose outcome is ``met``), ``met`` (the tolerance's test on the value, for
+    every row), ``verdict`` in words, ``self_check`` (the sentence, or None), the tolerance in
+    words and as data (``tolerance_spec``: kind, value, derivation, and the row's ``sign``) and
+    ``why``, its numbers filled from the run (:func:`values.render`; a name the run does not
+    hold raises :class:`values.TemplateError`)."""
     data = values.load(paper.values)
     try:
         measured = paper.measure(records, quick)
     except Exception as e:  # a study whose record lacks a field: every row says so, the report still builds
         measured = {r["id"]: Skip(f"could not read the records: {type(e).__name__}: {e}") for r in data["rows"]}
+    label = Path(paper.values).name
     out = []
     for r in data["rows"]:
         absent = "its experiment was not run" if any(rec is None for rec in records.values()) else \
             "not measured by this reproduction"
         v = measured.get(r["id"], Skip(absent))
+        facts = {}
+        if isinstance(v, Measured):
+            v, facts = v.value, dict(v.facts)
         reason = None
         if isinstance(v, Skip):
             reason, v = v.reason, None
         elif v is None:
             reason = "the study did not report it (see the experiment's record)"
-        ok = values.agrees(v, r["tolerance"], r["paper"])
-        if reason is None and ok is None:
-            reason = (r["tolerance"]["why"] if r["tolerance"]["kind"] == "report"
+        tol, sign, self_check = r["tolerance"], r.get("sign"), r.get("self_check")
+        met = values.agrees(v, tol, r["paper"], sign)
+        namespace = {**{k: x for k, x in records.items() if x is not None}, **facts, "value": v, "paper": r["paper"]}
+        where = f"{label}: row {r['id']!r}"
+        unit = r.get("unit", "")
+        if reason is None and met is None:
+            reason = (values.render(tol["why"], namespace, where + " tolerance.why") if tol["kind"] == "report"
                       else "not comparable under this tolerance")
-        if ok is True:
-            why = f"agrees {values.tolerance_text(r['tolerance'], r.get('unit', ''))}: {r['tolerance']['why']}"
-        elif ok is False:
-            why = r.get("departs_why") or "departs (no explanation recorded)"
+        if met is True:
+            head = "self-check met" if self_check else "agrees"
+            why = f"{head} {values.tolerance_text(tol, unit, sign)}: {values.render(tol['why'], namespace, where + ' tolerance.why')}"
+        elif met is False:
+            text = r.get("departs_why") or "departs (no explanation recorded)"
+            why = values.render(text, namespace, where + " departs_why")
+            if self_check:
+                why = f"self-check not met: {why}"
         else:
             why = reason
-        out.append(dict(id=r["id"], quantity=r["quantity"], paper=r["paper"], unit=r.get("unit", ""), source=r["source"],
-                        bipedlab=v, tolerance=values.tolerance_text(r["tolerance"], r.get("unit", "")),
-                        tolerance_why=r["tolerance"]["why"], agrees=ok, why=why))
+        out.append(dict(id=r["id"], quantity=r["quantity"], paper=r["paper"], unit=unit, source=r["source"],
+                        bipedlab=v, tolerance=values.tolerance_text(tol, unit, sign),
+                        tolerance_spec=dict(kind=tol["kind"], value=tol.get("value"), derivation=tol.get("derivation"),
+                                            sign=sign),
+                        tolerance_why=tol["why"], derivation=tol.get("derivation"), self_check=self_check,
+                        met=met, agrees=None if self_check else met, verdict=values.verdict(met, self_check), why=why))
     return out, data
+
+
+def counts(rows: list) -> dict:
+    """How many rows agree, depart, are self-checks (met or not) or are not judged."""
+    v = [r["verdict"] for r in rows]
+    return dict(rows=len(rows), agrees=v.count("agrees"), departs=v.count("departs"),
+                self_checks=v.count("self-check met") + v.count("self-check not met"),
+                self_checks_not_met=v.count("self-check not met"), not_judged=v.count("not judged"))
 
 
 def _copy_files(res, paper_key: str, out_dir: Path) -> dict:
@@ -115,11 +145,9 @@ def build(papers: list, results: dict, quick: bool, out_dir, wall_s: float, cpu_
                 skipped = next((r.skipped for r in res if r.name == f.experiment), None)
                 figs.append(dict(kind=kind, experiment=f.experiment, file=path, caption=f.caption,
                                  missing=None if path else (skipped or "not produced in this run")))
-        n_ok = sum(r["agrees"] is True for r in rows)
-        n_bad = sum(r["agrees"] is False for r in rows)
         report["papers"][p.key] = dict(
             title=data["title"], citation=data["citation"], rows=rows,
-            counts=dict(rows=len(rows), agrees=n_ok, departs=n_bad, not_judged=len(rows) - n_ok - n_bad),
+            counts=counts(rows),
             experiments=[dict(r.summary(), record=r.record) for r in res],
             figures=[f for f in figs if f["kind"] == "figure"],
             animations=[f for f in figs if f["kind"] == "animation"],

@@ -16,6 +16,7 @@ th{background:#f3f3f3}td.num{text-align:right;white-space:nowrap;font-variant-nu
 tr.agrees td.verdict{background:#e3f4e1;color:#1b5e20;font-weight:600}
 tr.departs td.verdict{background:#fde7e4;color:#8e1c0e;font-weight:600}
 tr.notjudged td.verdict{background:#f1f1f1;color:#555}
+tr.selfcheck td.verdict{background:#e8eef8;color:#1f3f73;font-style:italic}
 .src{color:#666;font-size:.85em}.why{font-size:.88em}
 figure{display:inline-block;margin:.5em 1em .8em 0;vertical-align:top;max-width:540px}
 figure img{max-width:100%;border:1px solid #e0e0e0}figcaption{font-size:.85em;color:#333}
@@ -41,25 +42,46 @@ def _val(v, unit: str = "") -> str:
     return f"{s} {unit}".strip() if unit and not isinstance(v, str) else s
 
 
-def _verdict(ok) -> tuple[str, str]:
-    if ok is True:
-        return "agrees", "agrees"
-    if ok is False:
-        return "departs", "departs"
-    return "notjudged", "not judged"
+def _verdict(row) -> tuple[str, str]:
+    """(CSS class, words) of a row's verdict; a self-check is shown as one, never as agreement."""
+    v = row.get("verdict") or {True: "agrees", False: "departs"}.get(row.get("agrees"), "not judged")
+    cls = {"agrees": "agrees", "departs": "departs", "not judged": "notjudged"}.get(v, "selfcheck")
+    return cls, v
+
+
+def counts_text(c: dict) -> str:
+    """'N rows: a agree, d depart, s self-checks (k not met), n not judged.'"""
+    sc = c.get("self_checks", 0)
+    scs = (f"{sc} self-check{'s' if sc != 1 else ''} ({c.get('self_checks_not_met', 0)} not met, not counted as "
+           f"agreement), " if sc else "")
+    return f'{c["rows"]} rows: {c["agrees"]} agree, {c["departs"]} depart, {scs}{c["not_judged"]} not judged.'
 
 
 def _table(rows: list) -> str:
     out = ['<table class="rows"><thead><tr><th>quantity</th><th>paper (source)</th><th>bipedlab</th>'
            '<th>agrees / departs</th><th>tolerance</th><th>why</th></tr></thead><tbody>']
     for r in rows:
-        cls, word = _verdict(r["agrees"])
+        cls, word = _verdict(r)
         out.append(f'<tr class="{cls}" id="row-{escape(r["id"])}"><td>{escape(r["quantity"])}</td>'
                    f'<td>{escape(_val(r["paper"], r["unit"]))}<br><span class="src">{escape(r["source"])}</span></td>'
                    f'<td class="num">{escape(_val(r["bipedlab"], r["unit"]))}</td><td class="verdict">{word}</td>'
-                   f'<td class="src">{escape(r["tolerance"])}</td><td class="why">{escape(r["why"] or "")}</td></tr>')
+                   f'<td class="src">{escape(r["tolerance"])}{_derivation(r)}</td><td class="why">{escape(r["why"] or "")}</td></tr>')
     out.append("</tbody></table>")
     return "\n".join(out)
+
+
+def _derivation(r) -> str:
+    d = r.get("derivation")
+    sc = r.get("self_check")
+    out = f'<br><span class="src">({escape(DERIVATION_WORDS.get(d, d))})</span>' if d else ""
+    if sc:
+        out += f'<br><span class="src">self-check: {escape(sc)}</span>'
+    return out
+
+
+DERIVATION_WORDS = {"precision": "from the printed digits", "spread": "from the spread of repeated measurements",
+                    "size": "a sign and a size", "claim": "an explicit test of the claim",
+                    "own_target": "the method's own target"}
 
 
 def _experiments(exps: list) -> str:
@@ -109,22 +131,23 @@ def _animations(anims: list) -> str:
 def page(report: dict) -> str:
     papers = report["papers"]
     dev = report["device"]
-    total = {k: sum(p["counts"][k] for p in papers.values()) for k in ("rows", "agrees", "departs", "not_judged")}
+    total = {k: sum(p["counts"].get(k, 0) for p in papers.values())
+             for k in ("rows", "agrees", "departs", "self_checks", "self_checks_not_met", "not_judged")}
     head = (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>bipedlab reproduction report</title>'
             f'<meta name="viewport" content="width=device-width, initial-scale=1"><style>{CSS}</style></head><body>')
     parts = [head, "<h1>bipedlab: the four papers, reproduced</h1>",
              f'<p>Each section sets the paper\'s numbers beside the simulation\'s, with the tolerance for agreement and '
-             f'why a row departs. {"A <strong>--quick</strong> run: every experiment reduced as stated in its table; " if report["quick"] else ""}'
-             f'<span class="counts">{total["rows"]} rows: {total["agrees"]} agree, {total["departs"]} depart, '
-             f'{total["not_judged"]} not judged.</span></p>',
+             f'why a row departs. A self-check (the method against its own target, or a number it was fitted '
+             f'to) is shown as such and never counted as agreement. '
+             f'{"A <strong>--quick</strong> run: every experiment reduced as stated in its table; " if report["quick"] else ""}'
+             f'<span class="counts">{escape(counts_text(total))}</span></p>',
              "<nav>" + "".join(f'<a href="#{escape(k)}">{escape(p["title"])}</a>' for k, p in papers.items())
              + '<a href="#metadata">run metadata</a></nav>']
     for key, p in papers.items():
         c = p["counts"]
         parts += [f'<section class="paper" id="{escape(key)}"><h2>{escape(p["title"])}</h2>',
                   f'<p class="src">{escape(p["citation"])} — <code>bipedlab reproduce {escape(key)}</code></p>',
-                  f'<p class="counts">{c["rows"]} rows: {c["agrees"]} agree, {c["departs"]} depart, '
-                  f'{c["not_judged"]} not judged.</p>', _table(p["rows"])]
+                  f'<p class="counts">{escape(counts_text(c))}</p>', _table(p["rows"])]
         if p["figures"]:
             parts += ["<h3>Figures</h3>", _figures(p["figures"])]
         if p["animations"]:

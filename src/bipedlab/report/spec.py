@@ -62,13 +62,24 @@ class Skip:
 
 
 @dataclass(frozen=True)
+class Measured:
+    """A row's simulated value with the numbers of the run its texts cite: ``{name}`` in the
+    row's ``tolerance.why`` or ``departs_why`` is filled from ``facts`` (beside ``value``,
+    ``paper`` and the experiments' records; :func:`bipedlab.report.values.render`)."""
+
+    value: Any
+    facts: dict = field(default_factory=dict)
+
+
+@dataclass(frozen=True)
 class Paper:
     """One paper's reproduction.
 
     key: the command-line name (``bipedlab reproduce KEY``).
     values: path of the paper-values JSON file.
-    measure(records, quick) -> {row id: value | Skip}: the simulated value of each row from
-        the experiments' records (``records[name]`` is None for an experiment not run).
+    measure(records, quick) -> {row id: value | Measured | Skip}: the simulated value of each
+        row from the experiments' records (``records[name]`` is None for an experiment not
+        run); :class:`Measured` adds the facts the row's texts cite.
     figures / animations: :class:`Figure` s shown in the paper's section.
     notes: sentences shown under the section's figures.
     order: position of the paper in the report (then by key).

@@ -34,11 +34,13 @@ def paper(tmp_path, monkeypatch):
     CALLS.clear()
     data = dict(paper="toy", title="A toy paper", citation="Nobody, 2024", rows=[
         dict(id="speed", quantity="speed", paper=0.8, unit="m/s", source="Fig. 1",
-             tolerance=dict(kind="rel", value=0.05, why="two digits"), departs_why="see Fig. 1 below."),
+             tolerance=dict(kind="rel", value=0.05, derivation="precision", why="two digits"),
+             departs_why="see Fig. 1 below."),
         dict(id="hops", quantity="hops", paper=92, source="Sec. 2",
-             tolerance=dict(kind="at_least", value=92, why="no fall"), departs_why="falls early; see the record."),
+             tolerance=dict(kind="at_least", value=92, derivation="claim", why="no fall"),
+             departs_why="falls early; see the record."),
         dict(id="top", quantity="top speed", paper=1.5, source="Sec. 3",
-             tolerance=dict(kind="abs", value=0.1, why="one digit")),
+             tolerance=dict(kind="abs", value=0.1, derivation="precision", why="one digit")),
     ])
     path = tmp_path / "toy.json"
     path.write_text(json.dumps(data))
@@ -89,7 +91,7 @@ def test_report_json_contract_and_page(paper, tmp_path):
     assert rows["hops"]["agrees"] is False and rows["hops"]["why"] == "falls early; see the record."
     assert rows["top"]["agrees"] is None and rows["top"]["bipedlab"] is None
     assert rows["top"]["why"] == "not run in --quick"
-    assert toy["counts"] == dict(rows=3, agrees=1, departs=1, not_judged=1)
+    assert toy["counts"] == dict(rows=3, agrees=1, departs=1, self_checks=0, self_checks_not_met=0, not_judged=1)
     exps = {e["name"]: e for e in toy["experiments"]}
     assert {"wall_s", "compile_s"} <= set(exps["run"]) and exps["run"]["reduction"] == "20 hops"
     assert exps["extra"]["skipped"] == "not run in --quick"

@@ -11,7 +11,7 @@ from bipedlab.report import values
 
 def _row(**kw):
     row = dict(id="speed", quantity="walking speed", paper=0.8, unit="m/s", source="Sec. III, Fig. 5",
-               tolerance=dict(kind="rel", value=0.05, why="two significant digits"))
+               tolerance=dict(kind="rel", value=0.05, derivation="precision", why="two significant digits"))
     row.update(kw)
     return row
 
@@ -34,6 +34,16 @@ def test_a_well_formed_file_loads(tmp_path):
     (dict(tolerance=dict(kind="range", value=[2, 1], why="x")), "does not fit"),
     (dict(tolerance=dict(kind="report", value=3, why="x")), "does not fit"),
     (dict(paper=[1, 2]), "'paper'"),
+    (dict(tolerance=dict(kind="rel", value=0.05, why="x")), "derivation"),
+    (dict(tolerance=dict(kind="rel", value=0.05, derivation="guess", why="x")), "derivation"),
+    (dict(tolerance=dict(kind="rel", value=0.05, derivation="claim", why="x")), "cannot use kind 'rel'"),
+    (dict(tolerance=dict(kind="report", value=None, derivation="claim", why="x")), "no derivation"),
+    (dict(tolerance=dict(kind="rel", value=1.2, derivation="precision", why="x")), "does not fit"),
+    (dict(tolerance=dict(kind="abs", value=0.9, derivation="precision", why="x")), "farther than |paper|"),
+    (dict(tolerance=dict(kind="factor", value=3, derivation="size", why="x")), "does not fit"),
+    (dict(sign="+", tolerance=dict(kind="range", value=[-0.1, 1.0], derivation="spread", why="x")), "both signs"),
+    (dict(sign="-"), "not the sign"),
+    (dict(sign="up"), "'sign'"),
     (dict(paper=float("nan")), "'paper'"),
 ])
 def test_a_row_without_source_or_a_sound_tolerance_is_refused(bad, words):
@@ -73,9 +83,23 @@ def test_unreadable_file_is_one_error_naming_it(tmp_path):
     ("range", [0.5, 1.0], "x", 1.2, False),
     ("equals", True, True, True, True),
     ("equals", True, True, False, False),
+    ("factor", 2.0, 0.018, 0.009, True),
+    ("factor", 2.0, 0.018, 0.0089, False),
+    ("factor", 2.0, 0.018, 0.036, True),
+    ("factor", 2.0, 0.018, 0.0361, False),
+    ("factor", 2.0, -0.011, 0.011, False),
+    ("factor", 2.0, -0.011, -0.02, True),
 ])
 def test_agrees_follows_the_tolerance(kind, t, paper, v, expected):
     assert values.agrees(v, dict(kind=kind, value=t, why="w"), paper) is expected
+
+
+def test_a_stated_sign_is_part_of_agreement():
+    tol = dict(kind="abs", value=0.05, why="w")
+    assert values.agrees(-0.046, tol, 0.05) is False                 # outside anyway
+    assert values.agrees(0.0, tol, 0.05) is True and values.agrees(0.0, tol, 0.05, "+") is False
+    assert values.agrees(0.01, tol, 0.05, "+") is True and values.agrees(-0.01, dict(kind="at_most", value=0), None, "+") is False
+    assert values.band(tol, 0.05, "+") == (0.0, 0.1) and values.band(dict(kind="factor", value=2.0), -0.01) == (-0.02, -0.005)
 
 
 def test_missing_or_unjudged_values_neither_agree_nor_depart():
@@ -93,3 +117,6 @@ def test_tolerance_in_words():
     assert values.tolerance_text(dict(kind="at_least", value=92), "hops") == "at least 92 hops"
     assert values.tolerance_text(dict(kind="range", value=[1, 2])) == "in [1, 2]"
     assert values.tolerance_text(dict(kind="report", value=None)) == "reported, not judged"
+    assert values.tolerance_text(dict(kind="factor", value=2.0)) == "the paper's sign, within a factor 2"
+    assert values.tolerance_text(dict(kind="abs", value=0.021), "m", "-") == "within ±0.021 m, negative"
+    assert values.tolerance_text(dict(kind="abs", value=0.00005)) == "within ±0.00005"

@@ -1,0 +1,89 @@
+"""Self-check rows: the method against its own target (or a number it was fitted to) is shown
+as a self-check, met or not, and never counted as agreement with the paper; the counts, the
+page and the command's summary say so."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from bipedlab.report import Paper, Skip, build, cli, html, values
+from bipedlab.report.runner import Result
+
+SELF = "the method against its own accuracy target on a synthetic robot"
+
+
+def _rows():
+    own = dict(kind="at_most", value=0.02, derivation="own_target", why="the study's own target")
+    return [
+        dict(id="kt", quantity="K_T error", paper="identified from logs", source="Table IV", self_check=SELF,
+             tolerance=own, departs_why="misses its target ({value:.1%})"),
+        dict(id="ground", quantity="ground error", paper="roughly estimated", source="Table VI", self_check=SELF,
+             tolerance=dict(own, value=0.1), departs_why="the hop does not determine it ({value:.0%})"),
+        dict(id="fit", quantity="eigenvalue at the chosen gains", paper=0.6921, source="Sec. IV-A",
+             self_check="a fit: the gains are chosen for their closeness to the paper's value",
+             tolerance=dict(kind="abs", value=0.05, derivation="own_target", why="half a grid step"),
+             departs_why="no grid point comes near"),
+        dict(id="speed", quantity="speed", paper=0.9, unit="m/s", source="Sec. V-D",
+             tolerance=dict(kind="abs", value=0.05, derivation="precision", why="printed to a tenth"),
+             departs_why="walks at {value:.3f} m/s"),
+        dict(id="travel", quantity="torso travel", paper="less than 2 deg", source="Sec. III-E",
+             tolerance=dict(kind="at_most", value=2.0, derivation="claim", why="the claim, tested as at most 2"),
+             departs_why="travels more"),
+        dict(id="hops", quantity="hops", paper=92, source="Sec. VIII-D",
+             tolerance=dict(kind="at_least", value=92, derivation="claim", why="no fall"), departs_why="falls"),
+    ]
+
+
+MEASURED = dict(kt=0.002, ground=0.44, fit=0.663, speed=0.837, travel=1.1, hops=Skip("not run in --quick"))
+
+
+@pytest.fixture
+def report(tmp_path):
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(dict(paper="toy", title="Toy", citation="c", rows=_rows())))
+    paper = Paper("toy", "Toy", str(path), (), lambda r, q: dict(MEASURED))
+    rep = build.build([paper], {"toy": [Result("toy", "run", "toy", {}, dict(x=1))]}, quick=True,
+                      out_dir=tmp_path / "out", wall_s=0.0, cpu_s=0.0)
+    return rep, tmp_path / "out"
+
+
+def test_self_checks_are_counted_apart_and_never_as_agreement(report):
+    rep, _ = report
+    p = rep["papers"]["toy"]
+    rows = {r["id"]: r for r in p["rows"]}
+    assert p["counts"] == dict(rows=6, agrees=1, departs=1, self_checks=3, self_checks_not_met=1, not_judged=1)
+    for i in ("kt", "ground", "fit"):
+        assert rows[i]["agrees"] is None and rows[i]["self_check"]
+    assert rows["kt"]["met"] is True and rows["kt"]["verdict"] == "self-check met"
+    assert rows["fit"]["met"] is True and rows["fit"]["verdict"] == "self-check met"
+    assert rows["ground"]["met"] is False and rows["ground"]["verdict"] == "self-check not met"
+    assert rows["ground"]["why"] == "self-check not met: the hop does not determine it (44%)"
+    assert rows["kt"]["why"].startswith("self-check met at most 0.02")
+    assert rows["speed"]["verdict"] == "departs" and rows["speed"]["why"] == "walks at 0.837 m/s"
+    assert rows["travel"]["verdict"] == "agrees" and rows["hops"]["verdict"] == "not judged"
+
+
+def test_the_page_and_the_summary_show_self_checks_as_such(report):
+    rep, out = report
+    page = (out / "index.html").read_text()
+    assert page.count('<tr class="selfcheck"') == 3
+    assert page.count('<tr class="agrees"') == 1 and page.count('<tr class="departs"') == 1
+    assert "self-check not met" in page and "self-check: a fit" in page
+    assert "6 rows: 1 agree, 1 depart, 3 self-checks (1 not met, not counted as agreement), 1 not judged." in page
+    assert html.counts_text(dict(rows=2, agrees=1, departs=1, not_judged=0)) == "2 rows: 1 agree, 1 depart, 0 not judged."
+    rep.update(index_html="i.html", report_json="r.json")
+    assert "3 self-checks" in cli.summary(rep)
+
+
+@pytest.mark.parametrize("self_check, derivation, words", [
+    ("", "own_target", "'self_check' must say"),
+    (None, "own_target", "belongs to a self-check row"),
+])
+def test_self_check_rows_are_declared_consistently(self_check, derivation, words):
+    row = dict(id="x", quantity="q", paper="identified", source="s",
+               tolerance=dict(kind="at_most", value=0.02, derivation=derivation, why="w"))
+    if self_check is not None:
+        row["self_check"] = self_check
+    with pytest.raises(values.ValuesError, match=words):
+        values.check(dict(paper="p", title="t", citation="c", rows=[row]))
