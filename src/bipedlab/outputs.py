@@ -17,6 +17,13 @@ and writes there. :meth:`Staging.commit` then moves the result into place:
 :meth:`Staging.discard` removes the staging folders (and any parent folders created for
 ``--out``), so a failed or interrupted run leaves the file system as it found it.
 
+A long command may also keep state *in place*, under the final ``--out`` folder
+(:func:`final_path` finds it from the staged one), so that an interrupted run can resume: a
+robustness study's chunks, a reproduction's progress. Such files are written with
+:func:`write_atomic` (a temporary name in the same folder, fsync, ``os.replace``, fsync of the
+folder), so a reader finds either the whole file or none of it; :meth:`Staging.discard` leaves
+them.
+
 Problems with a target raise :class:`OutputError` with one line naming the option and the
 path. JSON written to disk goes through :func:`json_safe` / :func:`dump_json`: strict JSON,
 non-finite floats as null.
@@ -207,6 +214,59 @@ class Staging:
         if isinstance(x, (list, tuple)):
             return type(x)(self.rename_paths(v) for v in x)
         return x
+
+
+def final_path(path: str) -> str:
+    """The target a staged path stands for (``<parent>/<name>`` for
+    ``<parent>/.bipedlab-tmp-<pid>/<name>``); any other path unchanged."""
+    folder, name = os.path.split(os.fspath(path))
+    parent, stage = os.path.split(folder)
+    return os.path.join(parent, name) if stage.startswith(STAGE_PREFIX) else os.fspath(path)
+
+
+def fsync_dir(folder) -> None:
+    """Make the entries of ``folder`` (a rename into it) durable; a no-op where folders cannot
+    be opened."""
+    try:
+        fd = os.open(folder, os.O_RDONLY)
+    except OSError:
+        return
+    try:
+        os.fsync(fd)
+    except OSError:
+        pass
+    finally:
+        os.close(fd)
+
+
+TEMP_MARK = ".tmp-"
+"""What the temporary names of :func:`write_atomic` hold (``.<name>.tmp-<pid>``)."""
+
+
+def write_atomic(path, write) -> None:
+    """Write the file ``path`` whole or not at all: ``write(fh)`` fills a binary file named
+    ``.<name>.tmp-<pid>`` in the same folder, which is flushed, fsynced and renamed onto
+    ``path`` (``os.replace``), the folder fsynced after. On any failure (a full disk) the
+    temporary file is removed and the error raised (an OSError naming ``path``); ``path`` is
+    untouched."""
+    path = os.fspath(path)
+    folder, name = os.path.split(path)
+    tmp = os.path.join(folder, f".{name}{TEMP_MARK}{os.getpid()}")
+    try:
+        with open(tmp, "wb") as fh:
+            write(fh)
+            fh.flush()
+            os.fsync(fh.fileno())
+        os.replace(tmp, path)
+    except BaseException as e:
+        try:
+            os.remove(tmp)
+        except OSError:
+            pass
+        if isinstance(e, OSError) and e.filename is None:  # a failed close names no file: name it
+            raise OSError(e.errno, e.strerror or str(e), path) from None
+        raise
+    fsync_dir(folder or ".")
 
 
 def _probe(option: str, folder: str) -> None:

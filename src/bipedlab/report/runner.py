@@ -18,8 +18,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional
 
-import bipedlab
 from bipedlab.outputs import dumps_json
+from bipedlab.provenance import source_hash
 from bipedlab.report.spec import Experiment, Paper
 
 COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
@@ -32,25 +32,6 @@ KEPT_SUFFIXES = (".png", ".svg", ".html", ".gif")
 def cache_root() -> Path:
     base = os.environ.get("BIPEDLAB_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab")
     return Path(base) / "reproduce"
-
-
-_SOURCE_HASH: Optional[str] = None
-
-
-def source_hash() -> str:
-    """sha256 of every .py and .json file of the installed package (paths and contents)."""
-    global _SOURCE_HASH
-    if _SOURCE_HASH is None:
-        root = Path(bipedlab.__file__).parent
-        h = hashlib.sha256()
-        for path in sorted(root.rglob("*")):
-            if path.suffix in (".py", ".json") and "__pycache__" not in path.parts and path.is_file():
-                h.update(str(path.relative_to(root)).encode())
-                h.update(b"\0")
-                h.update(path.read_bytes())
-                h.update(b"\0")
-        _SOURCE_HASH = h.hexdigest()
-    return _SOURCE_HASH
 
 
 def cache_key(paper: str, experiment: str, args: dict) -> str:

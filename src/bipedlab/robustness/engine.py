@@ -5,6 +5,7 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import math
+import os
 import sys
 import time
 from typing import Callable
@@ -127,37 +128,136 @@ def _nested(a: np.ndarray):
     return [None if not math.isfinite(v) else float(v) for v in a] if a.ndim == 1 else [_nested(r) for r in a]
 
 
+def _manifest(study: Study, trials: int, seed: int, per_dev: int, mesh, block: int, params: dict, key) -> dict:
+    from bipedlab import provenance
+    from bipedlab.robustness import chunks
+
+    return dict(format=chunks.FORMAT, study=study.name, trials=int(trials), seed=int(seed), horizon=int(study.horizon),
+                unit=study.unit, chunk_per_device=int(per_dev), devices=int(mesh.size), block=int(block),
+                processes=int(jax.process_count()), device=dist.device_label(mesh),
+                axes=[[a.name, a.lo, a.hi, a.bins] for a in study.axes], arguments=key or {},
+                code=provenance.code(), params_sha256=chunks.params_digest(params))
+
+
+def _share(found: dict, done: list, study: Study, padded: dict, block: int) -> dict:
+    """Every process's copy of the chunks process 0 read back (a multi-process run): the
+    outcomes of the ``done`` chunks, padded to whole blocks, as one byte buffer broadcast from
+    process 0; the layout comes from the trial's output shapes (traced, not compiled)."""
+    from jax.experimental import multihost_utils
+
+    spec = {k: jax.ShapeDtypeStruct((block,) + v.shape[1:], v.dtype) for k, v in padded.items()}
+    shapes = jax.eval_shape(jax.vmap(study.trial), spec)
+    keys = sorted(shapes)
+    sizes = [int(np.prod(shapes[k].shape)) * np.dtype(shapes[k].dtype).itemsize for k in keys]
+    per_block = sum(sizes)
+    buf = np.zeros(per_block * len(done), np.uint8)
+    if jax.process_index() == 0:
+        at = 0
+        for i in done:
+            for k, size in zip(keys, sizes):
+                a = np.zeros(shapes[k].shape, shapes[k].dtype)
+                got = np.asarray(found[i][k], shapes[k].dtype)
+                a[:got.shape[0]] = got
+                buf[at:at + size] = np.frombuffer(a.tobytes(), np.uint8)
+                at += size
+    buf = np.asarray(multihost_utils.broadcast_one_to_all(buf))
+    out, at = {}, 0
+    for i in done:
+        out[i] = {}
+        for k, size in zip(keys, sizes):
+            out[i][k] = np.frombuffer(buf[at:at + size].tobytes(), shapes[k].dtype).reshape(shapes[k].shape)
+            at += size
+    return out
+
+
 def run(study: Study, trials: int, seed: int = 0, chunk: int | None = None, out=None, progress: bool = True,
-        mesh=None) -> dict:
+        mesh=None, store=None, restart: bool = False, key: dict | None = None) -> dict:
     """Run ``trials`` trials of ``study`` drawn with ``seed`` over the global mesh (every device
     of every process), ``chunk`` trials per device per compiled call (default ``study.chunk``).
-    Writes ``outcomes.npz`` and figures under ``out`` (process 0 only) and returns the record."""
+    Writes ``outcomes.npz`` and figures under ``out`` (process 0 only) and returns the record.
+
+    Resuming: each compiled call's outcomes are stored as one chunk file in ``store``
+    (default ``<out>/chunks``; ``False``: none) as soon as the call returns; a run with the same
+    trials, seed, chunk layout, devices, study, ``key`` (a JSON-able dict of whatever else
+    defines the study, e.g. its command-line arguments) and code reads back the chunks an
+    interrupted run left and computes only the others, so it ends with the same outcomes, bit
+    for bit, as an uninterrupted run (see :mod:`bipedlab.robustness.chunks`). A folder holding
+    another run's chunks raises :class:`bipedlab.robustness.chunks.ResumeError` unless
+    ``restart``, which discards them. In a multi-process run, process 0 reads and writes the
+    chunks and tells the others which to skip (no shared file system is needed)."""
+    from bipedlab import interrupt
+    from bipedlab.robustness import chunks
+
     if trials < 1:
         raise ValueError("trials must be at least 1")
     mesh = dist.global_mesh() if mesh is None else mesh
     ndev = mesh.size
     lead = jax.process_index() == 0
+    multi = jax.process_count() > 1
     params = {k: np.asarray(v) for k, v in study.sample(np.random.default_rng(seed), trials).items()}
     per_dev = max(1, min(chunk or study.chunk, math.ceil(trials / ndev)))
     block = per_dev * ndev
     total = math.ceil(trials / block) * block
+    ranges = [(a, min(a + block, trials)) for a in range(0, total, block)]
     padded = _pad(params, total)
-    mapped = dist.sharded_map(study.trial, mesh)
-    pieces, t_run = [], 0.0
+    folder = None if store is False else (store if store is not None else (os.path.join(out, "chunks") if out else None))
+    say = (lambda m: print(f"[bipedlab] {m}", file=sys.stderr, flush=True)) if progress and lead else None
+    held, found, refused = None, {}, None
     # several processes: the collectives library announces its peers on fd 1 at the first gather
-    with dist.stdout_to_stderr() if jax.process_count() > 1 else contextlib.nullcontext():
-        compile_s = mapped.compile({k: v[:block] for k, v in padded.items()})
-        for start in range(0, total, block):
-            piece = {k: v[start:start + block] for k, v in padded.items()}
-            t0 = time.perf_counter()
-            pieces.append(mapped(piece))
-            t_run += time.perf_counter() - t0
-            if progress and lead:
-                done = min(start + block, trials)
-                _bar(study.name, done, trials, done / max(t_run, 1e-9))
-    raw = {k: np.concatenate([p[k] for p in pieces])[:trials] for k in pieces[0]}
+    with dist.stdout_to_stderr() if multi else contextlib.nullcontext():
+        try:
+            if lead and folder:
+                try:
+                    held = chunks.Store(folder, _manifest(study, trials, seed, per_dev, mesh, block, params, key),
+                                        restart=restart)
+                    if held.restarted and say:
+                        say(f"--restart: discarded the chunks of an earlier run in {folder}")
+                    found = chunks.load_all(held, ranges, params, say)
+                except chunks.ResumeError as e:
+                    if not multi:
+                        raise
+                    refused = e
+            if multi:  # process 0 says which chunks it holds (or that it refused the folder)
+                from jax.experimental import multihost_utils
+
+                mask = np.zeros(len(ranges) + 1, np.int32)
+                mask[0] = refused is not None
+                mask[[1 + i for i in found]] = 1
+                mask = np.asarray(multihost_utils.broadcast_one_to_all(mask))
+                if mask[0]:
+                    raise refused or chunks.ResumeError("process 0 could not resume the run (see its message)")
+                done = [int(i) for i in np.flatnonzero(mask[1:])]
+                if done:
+                    found = _share(found, done, study, padded, block)
+            if say and found:
+                say(f"resuming: {sum(b - a for i, (a, b) in enumerate(ranges) if i in found)} of {trials} trials "
+                    f"({len(found)} of {len(ranges)} chunks) read back from {folder}")
+            todo = [i for i in range(len(ranges)) if i not in found]
+            pieces, t_run, compile_s, computed = dict(found), 0.0, 0.0, 0
+            if todo:
+                mapped = dist.sharded_map(study.trial, mesh)
+                compile_s = mapped.compile({k: v[:block] for k, v in padded.items()})
+            for i in todo:
+                a = i * block
+                piece = {k: v[a:a + block] for k, v in padded.items()}
+                t0 = time.perf_counter()
+                res_i = mapped(piece)
+                t_run += time.perf_counter() - t0
+                pieces[i] = res_i
+                computed += ranges[i][1] - ranges[i][0]
+                if held is not None:
+                    with interrupt.critical():  # an interruption waits for the chunk to be written
+                        held.save(i, ranges[i][0], ranges[i][1], params, res_i)
+                if progress and lead:
+                    done_n = trials - sum(ranges[j][1] - ranges[j][0] for j in todo if j not in pieces)
+                    _bar(study.name, done_n, trials, computed / max(t_run, 1e-9))
+        finally:
+            if held is not None:
+                held.close()
+    raw = {k: np.concatenate([np.asarray(pieces[i][k])[:ranges[i][1] - ranges[i][0]] for i in range(len(ranges))])
+           for k in pieces[0]}
     res = outcome_arrays(raw, study.horizon)
-    rate = trials / max(t_run, 1e-9)
+    rate = computed / t_run if computed and t_run > 0 else float("nan")
     frac, count = survival_map(params, res["survived"], study.axes)
     fell_at = np.bincount(res["completed"][~res["survived"]], minlength=study.horizon + 1)[:study.horizon + 1]
     rec = dict(
@@ -167,6 +267,8 @@ def run(study: Study, trials: int, seed: int = 0, chunk: int | None = None, out=
         mean_completed=float(np.mean(res["completed"])),
         trials_per_s=float(rate), compile_s=float(compile_s), run_s=float(t_run),
         chunk_per_device=int(per_dev), padded_to=int(total),
+        computed_trials=int(computed), resumed_trials=int(trials - computed),
+        chunks=str(folder) if folder and lead else None, chunk_files=len(ranges),
         device=dist.device_label(mesh), devices=int(ndev), local_devices=int(len(jax.local_devices())),
         processes=int(jax.process_count()),
         axes=[dict(name=a.name, lo=a.lo, hi=a.hi, bins=a.bins, unit=a.unit, centers=[float(c) for c in a.centers()])
@@ -187,12 +289,17 @@ def run(study: Study, trials: int, seed: int = 0, chunk: int | None = None, out=
 
 def summary(rec: dict) -> str:
     """The record as a few lines of text."""
+    rate = rec.get("trials_per_s")
+    speed = f"{rate:.3g} trials/s" if rate is not None and math.isfinite(rate) else "no trial computed"
     lines = [
         f"robustness {rec['study']}: {rec['survived']}/{rec['trials']} trials survived {rec['horizon']} {rec['unit']}"
         f" ({100 * rec['survival_rate']:.1f} %); fell {rec['fell']}, non-finite {rec['nonfinite']} (seed {rec['seed']})",
-        f"{rec['trials_per_s']:.3g} trials/s on {rec['devices']} device(s) [{rec['device']}] in {rec['processes']} "
+        f"{speed} on {rec['devices']} device(s) [{rec['device']}] in {rec['processes']} "
         f"process(es); compile {rec['compile_s']:.1f} s, run {rec['run_s']:.2f} s",
     ]
+    if rec.get("resumed_trials"):
+        lines.append(f"resumed: {rec['resumed_trials']} trials read back from {rec.get('chunks') or 'the chunks'}, "
+                     f"{rec['computed_trials']} computed")
     axes = rec.get("axes") or []
     if 1 <= len(axes) <= 2:
         m = np.asarray([[np.nan if v is None else v for v in (row if isinstance(row, list) else [row])]

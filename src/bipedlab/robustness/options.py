@@ -23,6 +23,17 @@ a bracketed IPv6 one), and a SLURM job (``SLURM_NTASKS`` > 1) must also set the 
 reads it from. A process that cannot join within ``--init-timeout`` (process 0: the others
 did not connect; the others: no coordinator answered) ends with status 2 and one line.
 
+Resuming: with ``--out DIR`` the outcomes are written chunk by chunk (one file per compiled
+call) to ``DIR/chunks`` as they are computed, outside the staged outputs, so that they outlive
+an interruption (SIGINT, SIGTERM, a killed process, a full disk). The same command run again
+reads them back and computes only the rest, ending with the outcomes of an uninterrupted run,
+bit for bit (:mod:`bipedlab.robustness.chunks`). What a run is — its options but the launch
+options (:data:`LAUNCH_OPTIONS`), the files they name, the devices, the code — is recorded in
+``DIR/chunks/manifest.json``; another run on the same DIR is refused in one line (status 2)
+unless ``--restart``, which discards the chunks. A write that fails (a full disk) ends the run
+with status 1 and one line, the chunks written so far kept. The chunks stay after a complete
+run (a rerun reads everything back); delete ``DIR/chunks`` to free the space.
+
 A robot's module builds its command with :func:`command`.
 """
 from __future__ import annotations
@@ -30,9 +41,11 @@ from __future__ import annotations
 import argparse
 import os
 import re
+import sys
 from typing import Callable
 
 from bipedlab.cli import SEED, Command, UsageError, add_out, int_in, one_line
+from bipedlab.outputs import final_path
 
 TRIALS = int_in(1, 10_000_000)
 PROCESSES = int_in(1, 65_536)
@@ -132,7 +145,11 @@ def add_arguments(p, trials: int, chunk: int) -> None:
     p.add_argument("--init-timeout", type=int_in(1, 3600), default=INIT_TIMEOUT, metavar="S",
                    help="seconds a multi-process run waits for its processes to join (process 0) or for the "
                         f"coordinator to answer (the others) before it gives up (default {INIT_TIMEOUT})")
-    add_out(p, "the trials' outcomes (outcomes.npz) and survival figures (PNG)")
+    add_out(p, "the trials' outcomes (outcomes.npz) and survival figures (PNG); the outcomes are written chunk by "
+               "chunk to DIR/chunks as they are computed, and the same command run again after an interruption "
+               "resumes from them")
+    p.add_argument("--restart", action="store_true",
+                   help="discard the chunks an earlier run left in DIR/chunks and start over")
 
 
 def validate(args) -> None:
@@ -187,6 +204,36 @@ def before_jax(args) -> None:
         raise UsageError(message) from None
 
 
+#: options that say how and where a run goes, not what it computes (left out of its identity)
+LAUNCH_OPTIONS = ("out", "json", "restart", "devices", "coordinator", "num_processes", "process_id", "init_timeout",
+                  "slurm")
+
+
+def run_arguments(args) -> dict:
+    """What defines a run beside the engine's own layout: the command and its options (the
+    launch options left out), and the sha256 of every file an option names, so that a resume
+    with other options or another file is refused."""
+    from bipedlab import provenance
+
+    opts = {k: v for k, v in sorted(vars(args).items()) if not k.startswith("_") and k not in LAUNCH_OPTIONS}
+    files = {}
+    for k, v in opts.items():
+        for x in (v if isinstance(v, (list, tuple)) else [v]):
+            if isinstance(x, str) and os.path.isfile(x):
+                files[x] = provenance.file_sha256(x)
+    command = getattr(args, "_command", None)
+    return dict(command=command.name if command is not None else None,
+                options={k: v if isinstance(v, (bool, int, float, str, type(None), list, tuple)) else repr(v)
+                         for k, v in opts.items()}, files=files)
+
+
+def _inside(path, folder: str) -> bool:
+    if not isinstance(path, (str, bytes, os.PathLike)):
+        return False
+    p, f = os.path.abspath(os.fsdecode(path)), os.path.abspath(folder)
+    return p == f or p.startswith(f + os.sep)
+
+
 def command(robot: str, help: str, build: Callable, add_options: Callable | None = None, trials: int = 64,
             chunk: int = 16, check: Callable | None = None) -> Command:
     """The ``robustness <robot>`` Command: ``build(args, progress) -> Study`` makes the study
@@ -204,11 +251,26 @@ def command(robot: str, help: str, build: Callable, add_options: Callable | None
             check(args)
 
     def run(args, progress):
-        from bipedlab.robustness import engine
+        from bipedlab.robustness import chunks, engine
 
         study = build(args, progress)
-        progress(f"{args.trials} trials of {study.name}, compiling first")
-        rec = engine.run(study, args.trials, args.seed, args.chunk, out=args.out)
+        store = os.path.join(final_path(args.out), "chunks") if args.out else None
+        progress(f"{args.trials} trials of {study.name}" + (f", chunks in {store}" if store else ""))
+        try:
+            rec = engine.run(study, args.trials, args.seed, args.chunk, out=args.out, store=store,
+                             restart=getattr(args, "restart", False), key=run_arguments(args))
+        except chunks.ResumeError as e:
+            raise UsageError(f"{args._command.name}: --out: {e}; run the command it was started with to resume it, add --restart to "
+                             "discard its chunks, or choose another --out") from None
+        except OSError as e:
+            if store is None or not _inside(e.filename, store):
+                raise
+            # one line and status 1, the chunks written so far kept (the core reports an error
+            # of the staged outputs so)
+            if getattr(sys.stderr, "mid_line", False):  # after a progress bar's last redraw
+                print(file=sys.stderr)
+            raise OSError(e.errno, f"{e.strerror or e} (writing {e.filename}); the chunks written so far are kept "
+                                   f"in {store}: run the same command again to resume", args.out) from None
         return rec, engine.summary
 
     return Command("robustness", robot, help, add, run, before_jax=before_jax, validate=check_all)
