@@ -4,6 +4,10 @@ The papers are those the robot packages register (:mod:`bipedlab.report.registry
 paper's experiments run in one process (several papers side by side in worker processes,
 ``--jobs``), each result stored under a content hash, and the report is written to DIR (default ``./bipedlab-report``): index.html,
 report.json and the figures.
+
+Each experiment's result is stored the moment it finishes; the same command run again after an
+interruption resumes the run, reusing what it finished, also under ``--rerun``
+(:mod:`bipedlab.report.resume`; ``DIR/progress.json`` says which run DIR holds).
 """
 from __future__ import annotations
 
@@ -86,13 +90,20 @@ def _run(args, progress):
     papers = [p for k, p in known.items() if not args.papers or k in args.papers]
     t0, c0 = time.perf_counter(), _cpu_s()
     only = set(args.only) if args.only else None
-    from bipedlab.report import workers
+    from bipedlab.outputs import final_path
+    from bipedlab.report import resume, workers
 
+    run = resume.begin(final_path(args.out), resume.arguments(papers, args.quick, args.rerun, only), papers,
+                       args.quick, only)
+    if run.note:
+        progress(run.note)
     jobs = args.jobs if args.jobs is not None else workers.default_jobs()
-    results = runner.run_all(papers, args.quick, progress, use_cache=not args.rerun, only=only, jobs=jobs)
+    results = runner.run_all(papers, args.quick, progress, use_cache=not args.rerun, only=only, jobs=jobs,
+                             run_id=run.id)
     wall, cpu = time.perf_counter() - t0, _cpu_s() - c0
     progress("writing the report")
     report = build.build(papers, results, args.quick, args.out, wall, cpu)
+    resume.finish(args.out, run)
     report["index_html"] = f"{args.out}/index.html"
     report["report_json"] = f"{args.out}/report.json"
     return report, summary

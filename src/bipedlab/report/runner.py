@@ -6,6 +6,13 @@ paper, name and arguments, and the JAX version: re-running with unchanged code a
 the stored record and figures (``<cache>/reproduce/<key>/``), so rebuilding a report takes
 seconds. The cache folder is ``$BIPEDLAB_CACHE_DIR`` or ``~/.cache/bipedlab``, as for the
 compiled programs.
+
+Each experiment's entry is stored the moment the experiment finishes, before the next one
+starts (its files in a temporary folder, ``record.json`` fsynced, the folder renamed into
+place), so an interrupted run loses at most the experiments that were running. A stored record
+carries the id of the run that computed it (``run``): ``use_cache=False`` (``reproduce
+--rerun``) recomputes every experiment except those the same run (``run_id``) has already
+stored, which is how an interrupted ``--rerun`` resumes (:mod:`bipedlab.report.resume`).
 """
 from __future__ import annotations
 
@@ -13,12 +20,13 @@ import hashlib
 import json
 import os
 import shutil
+import socket
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Callable, Optional
 
-from bipedlab.outputs import dumps_json
+from bipedlab.outputs import dumps_json, fsync_dir, write_atomic
 from bipedlab.provenance import source_hash
 from bipedlab.report.spec import Experiment, Paper
 
@@ -77,11 +85,12 @@ class Result:
     reduction: str = ""
     files: list = field(default_factory=list)   # kept output files (absolute paths in the cache)
     key: str = ""
+    resumed: bool = False                        # stored by this same run before it was interrupted
 
     def summary(self) -> dict:
         return dict(name=self.name, command=self.command, args=self.args, wall_s=self.wall_s,
                     compile_s=self.compile_s, cpu_s=self.cpu_s, cached=self.cached, skipped=self.skipped,
-                    reduction=self.reduction or None, cache_key=self.key or None)
+                    reduction=self.reduction or None, cache_key=self.key or None, resumed=self.resumed)
 
 
 def _fmt_s(s: float) -> str:
@@ -130,9 +139,56 @@ def _kept_files(folder: Path) -> list:
     return sorted(str(p) for p in folder.rglob("*") if p.is_file() and p.suffix.lower() in KEPT_SUFFIXES)
 
 
+def _stored(where: Path) -> Optional[dict]:
+    """The stored entry's record.json, None when absent or damaged."""
+    try:
+        stored = json.loads((where / "record.json").read_text())
+    except (OSError, ValueError):
+        return None
+    needed = ("record", "wall_s", "compile_s", "cpu_s")
+    return stored if isinstance(stored, dict) and all(k in stored for k in needed) else None
+
+
+def _reusable(stored: Optional[dict], use_cache: bool, run_id: Optional[str]) -> bool:
+    return stored is not None and (use_cache or (run_id is not None and stored.get("run") == run_id))
+
+
+_TMP = ".tmp-"
+
+
+def _tmp_name(key: str) -> str:
+    return f".{key}{_TMP}{socket.gethostname()}-{os.getpid()}"
+
+
+def clean_stale(root: Optional[Path] = None) -> None:
+    """Remove the temporary folders that processes of this host which no longer run left in
+    the cache (an experiment interrupted while it ran)."""
+    root = cache_root() if root is None else root
+    if not root.is_dir():
+        return
+    mark = f"{_TMP}{socket.gethostname()}-"
+    for p in root.iterdir():
+        if p.name.startswith(".") and mark in p.name:
+            pid = p.name.rpartition("-")[2]
+            if pid.isdigit() and not _alive(int(pid)):
+                shutil.rmtree(p, ignore_errors=True)
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True
+    return True
+
+
 def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callable[[str], None],
-                   use_cache: bool = True) -> Result:
-    """Run one experiment (or take its stored result): the record, times and kept files."""
+                   use_cache: bool = True, run_id: Optional[str] = None) -> Result:
+    """Run one experiment (or take its stored result): the record, times and kept files.
+    ``use_cache=False`` reuses only an entry stored by the run ``run_id`` (``resumed``); the
+    entry stored here carries ``run_id``."""
     args = exp.args(quick)
     res = Result(paper.key, exp.name, exp.command, args, None, reduction=exp.reduction if quick else "")
     if args is None:
@@ -142,18 +198,16 @@ def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callabl
     res.key = key
     root = cache_root()
     where = root / key
-    if use_cache and (where / "record.json").is_file():
-        try:
-            stored = json.loads((where / "record.json").read_text())
-            res.record = stored["record"]
-            res.wall_s, res.compile_s, res.cpu_s = stored["wall_s"], stored["compile_s"], stored["cpu_s"]
-            res.cached = True
-            res.files = _kept_files(where / "out")
-            return res
-        except (OSError, ValueError, KeyError):
-            pass  # a damaged entry is recomputed
+    stored = _stored(where)  # a damaged entry is recomputed
+    if _reusable(stored, use_cache, run_id):
+        res.record = stored["record"]
+        res.wall_s, res.compile_s, res.cpu_s = stored["wall_s"], stored["compile_s"], stored["cpu_s"]
+        res.cached = True
+        res.resumed = run_id is not None and stored.get("run") == run_id
+        res.files = _kept_files(where / "out")
+        return res
     _CompileClock.install()
-    tmp = root / f".{key}.tmp-{os.getpid()}"
+    tmp = root / _tmp_name(key)
     shutil.rmtree(tmp, ignore_errors=True)
     (tmp / "out").mkdir(parents=True)
     c0, t0, p0 = _CompileClock.total, time.perf_counter(), time.process_time()
@@ -166,11 +220,12 @@ def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callabl
         for p in (tmp / "out").rglob("*"):  # keep the figures, drop the bulky data files
             if p.is_file() and p.suffix.lower() not in KEPT_SUFFIXES:
                 p.unlink()
-        (tmp / "record.json").write_text(dumps_json(dict(record=res.record, wall_s=res.wall_s, compile_s=res.compile_s,
-                                                         cpu_s=res.cpu_s, args=args, paper=paper.key,
-                                                         experiment=exp.name)))
+        text = dumps_json(dict(record=res.record, wall_s=res.wall_s, compile_s=res.compile_s, cpu_s=res.cpu_s,
+                               args=args, paper=paper.key, experiment=exp.name, run=run_id))
+        write_atomic(tmp / "record.json", lambda fh: fh.write(text.encode()))
         shutil.rmtree(where, ignore_errors=True)
         os.replace(tmp, where)
+        fsync_dir(root)
     finally:
         shutil.rmtree(tmp, ignore_errors=True)
     res.files = _kept_files(where / "out")
@@ -188,15 +243,18 @@ def plan(papers: list, quick: bool) -> list:
 
 
 def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bool = True,
-            only: Optional[set] = None, jobs: int = 1) -> dict:
+            only: Optional[set] = None, jobs: int = 1, run_id: Optional[str] = None) -> dict:
     """Run every experiment of ``papers``: {paper key: [Result, ...]} (skipped ones included).
     ``only``: names "paper/experiment" to run (the others are reported as not run). ``jobs`` > 1
     runs the papers side by side in that many worker processes (:mod:`bipedlab.report.workers`)
-    when more than one paper has work to do; otherwise everything runs in this process."""
+    when more than one paper has work to do; otherwise everything runs in this process.
+    ``run_id`` marks the entries this run stores; with ``use_cache=False`` the entries it
+    stored before an interruption are still reused (see :func:`run_experiment`)."""
     from bipedlab.report import workers
 
+    clean_stale()
     steps = [(p, e, x) for p, e, x in plan(papers, quick) if only is None or f"{p.key}/{e.name}" in only]
-    cached = {(p.key, e.name): (root_has(p, e, quick) if use_cache else False) for p, e, _ in steps}
+    cached = {(p.key, e.name): root_has(p, e, quick, use_cache, run_id) for p, e, _ in steps}
     steps_expected = [(p, e, 1.0 if cached[(p.key, e.name)] else x) for p, e, x in steps]
     busy = {p.key: sum(x for q, e, x in steps_expected if q is p and not cached[(p.key, e.name)]) for p in papers}
     jobs = max(1, min(int(jobs), sum(1 for v in busy.values() if v > 0)))
@@ -217,19 +275,21 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
     def finished(key: str, name: str, r: "Result") -> None:
         prog.finish(selected[(key, name)])
         label = f"{key}: {name}"
-        say(f"  {label}: stored result of a {_fmt_s(r.wall_s)} run" if r.cached else
+        say(f"  {label}: finished before the interruption (a {_fmt_s(r.wall_s)} run)" if r.resumed else
+            f"  {label}: stored result of a {_fmt_s(r.wall_s)} run" if r.cached else
             f"  {label}: done in {_fmt_s(r.wall_s)}, compile {_fmt_s(r.compile_s)}")
         done[(key, name)] = r
 
     if jobs > 1:
         groups = [(p.key, busy[p.key], [e.name for q, e, _ in steps if q is p]) for p in papers
                   if any(q is p for q, _, _ in steps)]
-        workers.run(groups, quick, use_cache, jobs, on_start=started,
+        workers.run(groups, quick, use_cache, jobs, on_start=started, run_id=run_id,
                     on_say=lambda label, msg: prog.inner(label)(msg), on_done=finished)
     else:
         for p, e, _ in steps:
             started(p.key, e.name)
-            finished(p.key, e.name, run_experiment(p, e, quick, prog.inner(f"{p.key}: {e.name}"), use_cache=use_cache))
+            finished(p.key, e.name, run_experiment(p, e, quick, prog.inner(f"{p.key}: {e.name}"), use_cache=use_cache,
+                                                   run_id=run_id))
     results: dict = {p.key: [] for p in papers}
     for p in papers:
         for e in p.experiments:
@@ -242,6 +302,15 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
     return results
 
 
-def root_has(paper: Paper, exp: Experiment, quick: bool) -> bool:
+def root_has(paper: Paper, exp: Experiment, quick: bool, use_cache: bool = True, run_id: Optional[str] = None) -> bool:
+    """Whether the cache holds an entry :func:`run_experiment` would reuse."""
     args = exp.args(quick)
-    return args is not None and (cache_root() / cache_key(paper.key, exp.name, args) / "record.json").is_file()
+    return args is not None and _reusable(_stored(cache_root() / cache_key(paper.key, exp.name, args)), use_cache,
+                                          run_id)
+
+
+def stored_by(run_id: str, papers: list, quick: bool, only: Optional[set] = None) -> list:
+    """"paper/experiment" of every planned experiment whose stored entry the run ``run_id``
+    computed (what an interrupted run had finished)."""
+    return [f"{p.key}/{e.name}" for p, e, _ in plan(papers, quick)
+            if (only is None or f"{p.key}/{e.name}" in only) and root_has(p, e, quick, False, run_id)]

@@ -9,7 +9,9 @@ next paper when it is free, and every message goes back to the parent, which kee
 progress display.
 
 Workers are started with ``spawn`` (a fresh interpreter: no JAX state is inherited) and report
-through a queue; a worker that dies is reported as a failed experiment, not a hang.
+through a queue; a worker that dies is reported as a failed experiment, not a hang. A worker
+stores each experiment's result in the cache itself, before it starts the next, and ends as
+soon as the parent is gone (interrupted, killed): an interrupted run leaves no worker behind.
 """
 from __future__ import annotations
 
@@ -27,11 +29,26 @@ def default_jobs() -> int:
     return max(1, os.cpu_count() or 1)
 
 
-def _worker(tasks, quick: bool, use_cache: bool, messages) -> None:
+def _end_with_parent(parent: int, poll_s: float = 0.5) -> None:
+    """End this process (no teardown) once its parent process is gone."""
+    import threading
+
+    def watch():
+        while os.getppid() == parent:
+            time.sleep(poll_s)
+        os._exit(1)
+
+    threading.Thread(target=watch, name="bipedlab-parent-watch", daemon=True).start()
+
+
+def _worker(tasks, quick: bool, use_cache: bool, messages, run_id: Optional[str] = None,
+            parent: Optional[int] = None) -> None:
     """Run papers from ``tasks`` ([paper key, [experiment names]] or None to stop)."""
     from bipedlab import compilecache
     from bipedlab.report import registry, runner
 
+    if parent is not None:
+        _end_with_parent(parent)
     compilecache.enable()
     known = registry.papers()
     while True:
@@ -47,7 +64,7 @@ def _worker(tasks, quick: bool, use_cache: bool, messages) -> None:
             label = f"{key}: {name}"
             try:
                 res = runner.run_experiment(paper, exp, quick, lambda msg, label=label: messages.put((SAY, label, msg)),
-                                            use_cache=use_cache)
+                                            use_cache=use_cache, run_id=run_id)
             except BaseException as e:  # noqa: BLE001  (reported to the parent, which raises it)
                 messages.put((FAIL, key, name, f"{type(e).__name__}: {e}"))
                 return
@@ -71,7 +88,7 @@ def makespan(expected: list, jobs: int) -> float:
 
 def run(groups: list, quick: bool, use_cache: bool, jobs: int, on_start: Callable[[str, str], None],
         on_say: Callable[[str, str], None], on_done: Callable[[str, str, object], None],
-        poll_s: float = 1.0) -> None:
+        poll_s: float = 1.0, run_id: Optional[str] = None) -> None:
     """Run ``groups`` — [(paper key, expected seconds, [experiment names])] — on ``jobs``
     worker processes, calling back in the parent as experiments start, talk and finish.
     Raises RuntimeError if an experiment fails or a worker dies."""
@@ -83,7 +100,8 @@ def run(groups: list, quick: bool, use_cache: bool, jobs: int, on_start: Callabl
     n = min(jobs, len(order))
     for _ in range(n):
         tasks.put(None)
-    procs = [ctx.Process(target=_worker, args=(tasks, quick, use_cache, messages), daemon=True) for _ in range(n)]
+    procs = [ctx.Process(target=_worker, args=(tasks, quick, use_cache, messages, run_id, os.getpid()), daemon=True)
+             for _ in range(n)]
     for p in procs:
         p.start()
     remaining = sum(len(names) for _, _, names in order)
