@@ -222,8 +222,9 @@ def run_arguments(args) -> dict:
             if isinstance(x, str) and os.path.isfile(x):
                 files[x] = provenance.file_sha256(x)
     command = getattr(args, "_command", None)
-    return dict(command=command.name if command is not None else None,
-                options={k: v if isinstance(v, (bool, int, float, str, type(None), list, tuple)) else repr(v)
+    plain = (bool, int, float, str, type(None), list, tuple)
+    return dict(command=command.name if command is not None else None,  # an object by its repr, no address
+                options={k: v if isinstance(v, plain) else re.sub(r" at 0x[0-9a-fA-F]+", "", repr(v))
                          for k, v in opts.items()}, files=files)
 
 
