@@ -213,7 +213,7 @@ def run(study: Study, trials: int, seed: int = 0, chunk: int | None = None, out=
                     if held.restarted and say:
                         say(f"--restart: discarded the chunks of an earlier run in {folder}")
                     found = chunks.load_all(held, ranges, params, say)
-                except chunks.ResumeError as e:
+                except Exception as e:  # noqa: BLE001 - the others learn of it first (they would wait)
                     if not multi:
                         raise
                     refused = e
