@@ -145,7 +145,7 @@ def test_gait_is_stable_at_three_degrees(gait):
 
 # ----- physics of the flow and of the impact ---------------------------------------------------
 def test_energy_is_conserved_along_the_flow(gait, p):
-    s = walker._step_jit(p, jnp.asarray(gait.fixed_point))
+    s = walker.step_jit(p, jnp.asarray(gait.fixed_point))
     e0 = sum(float(v) for v in walker._energy(p, jnp.asarray(gait.fixed_point)))
     e1 = sum(float(v) for v in walker._energy(p, s.z_minus))
     assert abs(e1 - e0) < 1e-9 * abs(e0)
@@ -163,7 +163,7 @@ def test_flow_matches_the_closed_form_equations(p):
 
 
 def test_impact_conserves_angular_momentum_and_loses_kinetic_energy(gait, p):
-    s = walker._step_jit(p, jnp.asarray(gait.fixed_point))
+    s = walker.step_jit(p, jnp.asarray(gait.fixed_point))
 
     @jax.jit
     def momenta(p, z_minus, z_plus):
@@ -186,7 +186,7 @@ def test_impact_conserves_angular_momentum_and_loses_kinetic_energy(gait, p):
 
 
 def test_reset_matches_the_closed_form_impact(gait, p):
-    s = walker._step_jit(p, jnp.asarray(gait.fixed_point))
+    s = walker.step_jit(p, jnp.asarray(gait.fixed_point))
     ym = np.asarray(cg.absolute_angles(s.z_minus))
     np.testing.assert_allclose(np.asarray(cg.absolute_angles(s.z)), _impact(ym), atol=1e-12)
     # the event is on the slope: theta_s + theta_ns = -2 gamma

@@ -41,7 +41,7 @@ def walk(slope_deg: float = 3.0, steps: int = 20, perturb: float = 0.0, seed: in
     x = g.fixed_point + perturb * d / np.linalg.norm(d)
     dist, periods, traj, fell = [], [], [np.asarray(x)], False
     for _ in range(steps):
-        s = walker._step_jit(p, jnp.asarray(x))
+        s = walker.step_jit(p, jnp.asarray(x))
         if int(s.status) != OK or not np.all(np.isfinite(np.asarray(s.z))):
             fell = True
             break

@@ -117,7 +117,8 @@ class Gait:
 
 
 @jax.jit
-def _step_jit(p, z0):
+def step_jit(p, z0):
+    """:func:`step`, compiled once for every slope and start (the parameters are traced)."""
     return step(p, z0)
 
 
@@ -132,7 +133,7 @@ def period_one_gait(gamma: float = 3.0 * np.pi / 180.0, guess=None, iterations: 
     P = return_map(p)
     x0 = GUESS if guess is None else np.asarray(guess, float)
     x, J, res = poincare.fixed_point(P, jnp.asarray(x0), iterations=iterations)
-    s = _step_jit(p, x)
+    s = step_jit(p, x)
     J = np.asarray(J)
     Jfd = poincare.central_differences(P, x, fd_step) if fd_step > 0 else np.full_like(J, np.nan)
     length = float(jnp.linalg.norm(s.step))

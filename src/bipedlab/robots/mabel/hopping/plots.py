@@ -23,7 +23,7 @@ def _window(run, first_hop: int, hops: int = 2):
 def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30) -> list[str]:
     """Joint angles and hip position (Fig. 21), torques (Fig. 22), cable stretch (Fig. 23) over
     two hops, and the hop period over the run. Returns the written paths."""
-    from bipedlab.robots.mabel.hopping.study import _I
+    from bipedlab.robots.mabel.hopping.study import INDEX
 
     out = figures.output_dir(out)
     w = _window(run, first_hop)
@@ -32,19 +32,19 @@ def write_figures(run, stretch: np.ndarray, out: str | Path, first_hop: int = 30
 
     fig, ax = figures.subplots(3, 2, figsize=(10, 8), sharex=True)
     for k, s in enumerate(tb.SIDES):
-        ax[0, k].plot(t, np.rad2deg(x[:, _I[f"la_{s}"]]), label="q_LA")
+        ax[0, k].plot(t, np.rad2deg(x[:, INDEX[f"la_{s}"]]), label="q_LA")
         ax[0, k].set_title(f"{'left' if s == 'L' else 'right'} leg")
-        ax[1, k].plot(t, np.rad2deg(x[:, _I[f"ls_{s}"]]), label="q_LS")
-        ax[1, k].plot(t, np.rad2deg(x[:, _I[f"bsp_{s}"]]), label="q_Bsp")
+        ax[1, k].plot(t, np.rad2deg(x[:, INDEX[f"ls_{s}"]]), label="q_LS")
+        ax[1, k].plot(t, np.rad2deg(x[:, INDEX[f"bsp_{s}"]]), label="q_Bsp")
         ax[0, k].set_ylabel("leg angle (deg)")
         ax[1, k].set_ylabel("deg")
         ax[1, k].legend(loc="best", fontsize=8)
-    ax[2, 0].plot(t, x[:, _I["y"]], color="C1")
+    ax[2, 0].plot(t, x[:, INDEX["y"]], color="C1")
     ax[2, 0].set_ylabel("hip height (m)", color="C1")
     travel = ax[2, 0].twinx()
-    travel.plot(t, x[:, _I["x"]] - x[0, _I["x"]], color="C0")
+    travel.plot(t, x[:, INDEX["x"]] - x[0, INDEX["x"]], color="C0")
     travel.set_ylabel("hip travel (m)", color="C0")
-    ax[2, 1].plot(t, np.rad2deg(x[:, _I["tor"]]))
+    ax[2, 1].plot(t, np.rad2deg(x[:, INDEX["tor"]]))
     ax[2, 1].set_ylabel("torso angle (deg)")
     for a in ax[2]:
         a.set_xlabel("time (s)")

@@ -111,7 +111,7 @@ def _hopping(ident, out, paths):
     t = e.t[k0:] - e.t[k0]
     q = hopping_fit.measured_coordinates(e)[k0:]
     qs = hopping_fit.replay_log(e, ident.params)
-    H = hopping_fit._H
+    H = hopping_fit.INDEX
     names = ("tor", "la_L", "ls_L", "la_R", "ls_R", "bsp_L", "bsp_R", "y")
     fig, axes = figures.subplots(4, 2, figsize=(11, 9))
     for ax, c in zip(axes.ravel(), names):
