@@ -11,6 +11,7 @@ import pytest
 
 from bipedlab import cli
 from helpers import expect_usage_error
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import study as wm
 
 
@@ -135,17 +136,19 @@ def test_pd_gains_refuses_steps(capsys):
 def test_falling_pairing_is_refused(capsys):
     """A shipped gait under a controller/sensing pairing that falls within 100 steps (measured,
     catalog.GAIT_FALLS) is refused with one line naming the fall."""
-    expect_usage_error(["walk", "mabel", "--gait", "paper-efficient", "--controller", "decentralized"], capsys,
-                       "falls under decentralized")
+    expect_usage_error(["walk", "mabel", "--gait", "paper-efficient", "--controller", "decentralized", "--sensing",
+                        "observer"], capsys, "falls under decentralized")
 
 
 @pytest.mark.slow
 def test_refused_pairing_does_fall():
-    """The refusal is a measurement: paper-efficient under the decentralised controller on
-    encoders falls in step 81 of 100 (36.19 s in, measured on an AVX-512 EPYC; a quantised walk
-    this long moves with the CPU's rounding, so any fall after step 50 is accepted)."""
-    r = wm.walk("paper-efficient", "decentralized", 100)
-    assert r["fell"] and 50 <= r["steps_completed"] < 100
+    """The refusal is a measurement: paper-efficient under the decentralised controller with the
+    velocity observer falls in step 44 of 100 (19.07 s in, measured on an AVX-512 EPYC; a
+    quantised walk this long moves with the CPU's rounding, so any fall after step 20 is
+    accepted). Every refused pairing of the catalogue falls within the 100 steps asked."""
+    for (gait, controller, sensing), (steps, _) in catalog.GAIT_FALLS.items():
+        r = wm.walk(gait, controller, 100, sensing=sensing)
+        assert r["fell"] and min(20, steps) <= r["steps_completed"] < 100, (gait, controller, sensing)
 
 
 def test_efficient_gait_strikes_behind_and_is_refused(capsys):

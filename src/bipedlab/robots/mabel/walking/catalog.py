@@ -60,9 +60,12 @@ FAST_GAIT_FALLS = {
 #: the other shipped gaits' (gait, controller, sensing) pairings that do not walk 100 steps on the
 #: stance plant: (touchdowns before the fall, time of the fall in s), measured with
 #: :func:`bipedlab.robots.mabel.walking.study.walk` (100 steps asked); every pairing not listed
-#: walks 100 steps
+#: walks 100 steps (all 36 pairings of nominal, paper-nominal, paper-efficient and efficient
+#: measured on a 2-core AVX-512 EPYC). The decentralised controller on paper-efficient is
+#: marginal: which sensing mode falls moves with the CPU's rounding of the quantised loop (an
+#: earlier build fell on encoders in step 81 and walked on the observer; this one the reverse)
 GAIT_FALLS = {
-    ("paper-efficient", "decentralized", "encoders"): (80, 36.19),
+    ("paper-efficient", "decentralized", "observer"): (43, 19.07),
     ("efficient", "decentralized", "encoders"): (3, 0.78), ("efficient", "decentralized", "observer"): (3, 0.83),
 }
 #: the full-model ``efficient`` gait: its swing toe clears the ground by at most 1.9 cm on the
