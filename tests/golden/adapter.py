@@ -130,7 +130,7 @@ def mabel_restricted(name: str = "nominal") -> dict:
     from bipedlab.robots.mabel.walking import study as walk_mabel
 
     _, _, rec = walk_mabel.load_gait(name)
-    design = walk_mabel._design_from_record(rec)
+    design = walk_mabel.design_from_record(rec)
     m = wk.walking_model()
     vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
     _, x0 = md.section_state(m, design)

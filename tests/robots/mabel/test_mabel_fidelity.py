@@ -130,7 +130,7 @@ def test_walk_refuses_the_fast_gait_where_it_falls(controller, sensing, capsys):
 @pytest.fixture(scope="module")
 def nominal_design():
     _, _, rec = wm.load_gait("nominal")
-    return wm._design_from_record(rec)
+    return wm.design_from_record(rec)
 
 
 def test_torso_travel_of_the_nominal_gait(nominal_design):

@@ -111,7 +111,7 @@ def test_shipped_gains_eigenvalue_equals_study_poincare(sweep):
     negative (an alternating mode), -0.8877; the paper's 0.6921 is positive and smaller. (The
     gait file stores -0.8903, from an earlier model: not compared.)"""
     _, g, rec = wm.load_gait("nominal")
-    pc = wm.poincare(wm._design_from_record(rec), g, ("pdff",))
+    pc = wm.poincare(wm.design_from_record(rec), g, ("pdff",))
     exact = complex(*pc["pdff"]["poincare_eigenvalues_complex"][0])
     ours = sweep["studies_gains"]["nominal"]["dominant_eigenvalue"]
     assert pc["pdff"]["fixed_point_residual"] < 1e-10

@@ -36,7 +36,7 @@ def test_paper_gait_torso_travel_is_within_the_papers_bounds(shipped):
     """Appendix B asks for less than 5 deg of torso travel over a step and Sec. III-E reports
     less than 2 deg for the paper's gait: the paper-model torque optimum travels 1.14 deg
     (the full design model's optimum, with friction in its zero dynamics, 8.4 deg)."""
-    d = wm._design_from_record(shipped["nominal"])
+    d = wm.design_from_record(shipped["nominal"])
     travel = np.degrees(md.torso_travel(md.design_model(kind="paper"), d))
     assert travel < PAPER["torso_deg"]
 

@@ -146,7 +146,7 @@ def _designs(args, out, progress):
 
             _, _, g = wm.load_gait(shipped)
             d, pc = g["design"], g.get("poincare") or {}
-            design = wm._design_from_record(g)
+            design = wm.design_from_record(g)
             m = md.design_model(kind=g.get("design_model", "full"))
             rec[name] = dict(speed_mps=d["speed"], step_length_m=d["step_length"], cmt=d["cmt"],
                              negative_work_fraction_spring=d["negative_work_fraction_spring"],

@@ -268,7 +268,7 @@ def efficient(steps, progress, out):
         from bipedlab.robots.mabel.walking import plots as wp
 
         m = md.design_model(kind=rec.get("design_model", "full"))
-        r.setdefault("figures", []).extend(wp.gait_figures(out, m, wm._design_from_record(rec), prefix="efficient_"))
+        r.setdefault("figures", []).extend(wp.gait_figures(out, m, wm.design_from_record(rec), prefix="efficient_"))
     return r
 
 
@@ -371,7 +371,7 @@ def pd_gains(steps, progress, out, kp_scales=PD_SCALES, kd_scales=PD_SCALES, gai
     base = {}
     for gait in gaits:
         vc, g, rec = wm.load_gait(gait)
-        z0, _ = md.section_state(m, wm._design_from_record(rec))
+        z0, _ = md.section_state(m, wm.design_from_record(rec))
         base[gait] = g
         for a, b in pts:
             G.append(g.replace(kp=g.kp * a, kd=g.kd * b))

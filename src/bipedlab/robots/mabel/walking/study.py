@@ -91,7 +91,8 @@ def load_gait(name_or_path: str):
     return from_record(d, str(name_or_path))
 
 
-def _design_from_record(rec: dict) -> md.Design:
+def design_from_record(rec: dict) -> md.Design:
+    """The design (optimiser vector, virtual constraints, section states) of a gait record."""
     vc = _vc_from(rec["constraints"])
     return md.Design(np.asarray(rec["x"], float), vc, np.asarray(rec["z_minus"], float),
                      np.asarray(rec["z_plus"], float), rec["design"])
