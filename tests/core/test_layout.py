@@ -1,6 +1,7 @@
 """The package's structure as a contract: a core that names no robot, robots that use the core
-and no other robot, no import cycle between folders, and one implementation of each shared
-algorithm (RK4, event location, the closed loop)."""
+and no other robot, no import cycle between folders, no private name used outside its module,
+robot command lines that hold no study data, and one implementation of each shared algorithm
+(RK4, event location, the closed loop)."""
 from __future__ import annotations
 
 import ast
@@ -26,16 +27,32 @@ def _modules():
         yield "bipedlab." + ".".join(parts) if parts else "bipedlab", path
 
 
+def _package_of(path: Path) -> str:
+    """The package a module's relative imports start from (the module itself for an __init__)."""
+    rel = path.relative_to(PKG)
+    return ".".join(["bipedlab", *rel.parts[:-1]])
+
+
+def _from_module(node: ast.ImportFrom, package: str) -> str:
+    """The absolute module of ``from <module> import ...``, relative forms resolved."""
+    if not node.level:
+        return node.module
+    base = package.split(".")
+    base = base[:len(base) - (node.level - 1)]
+    return ".".join(base + ([node.module] if node.module else []))
+
+
 def _imports(path: Path):
     tree = ast.parse(path.read_text())
     for node in ast.walk(tree):
         if isinstance(node, ast.Import):
             for a in node.names:
                 yield a.name
-        elif isinstance(node, ast.ImportFrom) and node.module and node.level == 0:
-            yield node.module
+        elif isinstance(node, ast.ImportFrom):
+            module = _from_module(node, _package_of(path))
+            yield module
             for a in node.names:
-                yield f"{node.module}.{a.name}"
+                yield f"{module}.{a.name}"
 
 
 def _unit(module: str) -> str | None:
@@ -253,3 +270,135 @@ def test_robots_use_the_core_hybrid_step():
     paths = dict(_modules())
     unported = [m for m in HYBRID_PORTED if "bipedlab.sim.hybrid" not in set(_imports(paths[m]))]
     assert not unported, unported
+
+
+def _private(name: str) -> bool:
+    """A module's own name: one leading underscore, not a dunder."""
+    return name.startswith("_") and not (name.startswith("__") and name.endswith("__"))
+
+
+def _private_uses(source: str, module: str, package: str, modules) -> list[str]:
+    """The private names of other bipedlab modules that ``source`` (the module ``module``, whose
+    relative imports start at ``package``) imports or uses, by AST: ``from m import _x``
+    (relative forms resolved), an import of a private module, and ``m._x`` / ``getattr(m, "_x")``
+    where ``m`` is a bipedlab module reached through the module's imports, whatever their
+    aliases (``import bipedlab.a.b``, ``from bipedlab.a import b as B``, ``from . import b``).
+    ``modules`` holds the names of bipedlab's modules. A module's own names are its own; a
+    package's ``__init__`` is a module like the others (it re-exports public names only)."""
+    tree = ast.parse(source)
+    alias: dict[str, str] = {}  # local name -> dotted name it stands for
+    hits = []
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Import):
+            for a in node.names:
+                alias[a.asname or a.name.split(".")[0]] = a.name if a.asname else a.name.split(".")[0]
+                parts = a.name.split(".")
+                if parts[0] == "bipedlab" and any(_private(p) for p in parts):
+                    hits.append(f"imports {a.name}")
+        elif isinstance(node, ast.ImportFrom):
+            src = _from_module(node, package)
+            for a in node.names:
+                if a.name == "*":
+                    continue
+                alias[a.asname or a.name] = f"{src}.{a.name}"
+                if src in modules and src != module and _private(a.name):
+                    hits.append(f"imports {src}.{a.name}")
+
+    def dotted(f):
+        parts = []
+        while isinstance(f, ast.Attribute):
+            parts.append(f.attr)
+            f = f.value
+        if not isinstance(f, ast.Name) or f.id not in alias:
+            return None
+        return ".".join([alias[f.id]] + parts[::-1])
+
+    def foreign(owner) -> bool:
+        return owner in modules and owner != module
+
+    for node in ast.walk(tree):
+        if isinstance(node, ast.Attribute) and _private(node.attr) and foreign(dotted(node.value)):
+            hits.append(f"uses {dotted(node.value)}.{node.attr}")
+        elif (isinstance(node, ast.Call) and isinstance(node.func, ast.Name) and node.func.id == "getattr"
+              and len(node.args) >= 2 and isinstance(node.args[1], ast.Constant)
+              and isinstance(node.args[1].value, str) and _private(node.args[1].value)
+              and foreign(dotted(node.args[0]))):
+            hits.append(f"uses {dotted(node.args[0])}.{node.args[1].value}")
+    return hits
+
+
+def test_private_check_sees_aliases():
+    """The check below finds private names however the module is reached, and leaves public
+    names, dunders, a module's own names and other libraries' names alone."""
+    modules = {"bipedlab", "bipedlab.cli", "bipedlab.gait", "bipedlab.gait.study", "bipedlab.gait.walking",
+               "bipedlab.robots.r", "bipedlab.robots.r.a", "bipedlab.robots.r.b"}
+    src = ("import os\nimport bipedlab.gait.study\nimport bipedlab.gait.walking as gw\n"
+           "from bipedlab import cli\nfrom bipedlab.gait import study as st\n"
+           "from bipedlab.gait.study import _design, design\nfrom . import b\nfrom .b import _helper as h\n"
+           "from . import _secret\nfrom bipedlab.robots.r.a import _mine\n"
+           "def f():\n    from bipedlab.gait import walking\n"
+           "    cli._enable_compile_cache(); st._design_from_record(r); gw._step(x); walking._step(x)\n"
+           "    bipedlab.gait.study._grid; b._table[0]; getattr(st, '_hidden')\n"
+           "    os._exit(0); st.__name__; st.design(); b.public(); _own(); getattr(st, 'design')\n")
+    hits = _private_uses(src, "bipedlab.robots.r.a", "bipedlab.robots.r", modules)
+    assert sorted(hits) == sorted([
+        "imports bipedlab.gait.study._design", "imports bipedlab.robots.r.b._helper",
+        "imports bipedlab.robots.r._secret",
+        "uses bipedlab.cli._enable_compile_cache", "uses bipedlab.gait.study._design_from_record",
+        "uses bipedlab.gait.walking._step", "uses bipedlab.gait.walking._step",
+        "uses bipedlab.gait.study._grid", "uses bipedlab.robots.r.b._table",
+        "uses bipedlab.gait.study._hidden"]), hits
+    init = "from bipedlab.gait.walking import _step, step\nfrom .study import _design\n"
+    assert sorted(_private_uses(init, "bipedlab.gait", "bipedlab.gait", modules)) == [
+        "imports bipedlab.gait.study._design", "imports bipedlab.gait.walking._step"]
+
+
+def test_no_private_name_crosses_modules():
+    """No module of bipedlab - core, robots and the top-level modules (cli, commands, registry,
+    bench, ...) alike - imports or uses another module's private name (one leading underscore):
+    what two modules share is public in its home."""
+    mods = dict(_modules())
+    hits = [f"{mod}: {h}" for mod, path in mods.items()
+            for h in _private_uses(path.read_text(), mod, _package_of(path), set(mods))]
+    assert not hits, "\n".join(sorted(set(hits)))
+
+
+def test_private_check_covers_every_module():
+    """The check above reads every module under src/bipedlab, the top-level ones included."""
+    mods = dict(_modules())
+    assert len(mods) == len(list(PKG.rglob("*.py")))
+    top = {m for m in mods if m.count(".") == 1}
+    assert {"bipedlab.cli", "bipedlab.commands", "bipedlab.registry", "bipedlab.bench"} <= top, top
+
+
+def _data_literals(source: str) -> list[str]:
+    """Module-level assignments in ``source`` whose value is a literal container (list, tuple,
+    set or dict display, nested or not) holding a number: data, not command-line plumbing."""
+    def numbers(node) -> bool:
+        return any(isinstance(n, ast.Constant) and isinstance(n.value, (int, float, complex))
+                   and not isinstance(n.value, bool) for n in ast.walk(node))
+
+    hits = []
+    for node in ast.parse(source).body:
+        if isinstance(node, (ast.Assign, ast.AnnAssign)) and node.value is not None:
+            value = node.value
+            if isinstance(value, (ast.List, ast.Tuple, ast.Set, ast.Dict)) and numbers(value):
+                targets = node.targets if isinstance(node, ast.Assign) else [node.target]
+                hits.append(f"{node.lineno}: {', '.join(ast.unparse(t) for t in targets)}")
+    return hits
+
+
+def test_data_literal_check():
+    src = ("X = float_in(0.0, 1.0)\nNAMES = ['a', 'b']\nFALLS = {'push': (0.2, 0.9)}\n"
+           "T: tuple = (1, 2)\nFLAGS = (True, False)\nCOMMANDS = [Command('w', 'r', 'h', f, g, bench=((),))]\n"
+           "def f():\n    return {'x': 1.0}\n")
+    assert _data_literals(src) == ["3: FALLS", "4: T"]
+
+
+def test_robot_command_lines_hold_no_study_data():
+    """A robot's command line parses, calls its studies and prints: measured or declared study
+    data (module-level literals of numbers: falls, pushes, tables) live in the robot's study or
+    catalog modules, which the command line imports."""
+    hits = [f"{mod}:{h}" for mod, path in _modules()
+            if mod.startswith("bipedlab.robots.") and path.name == "cli.py" for h in _data_literals(path.read_text())]
+    assert not hits, hits
