@@ -44,7 +44,7 @@ import re
 import sys
 from typing import Callable
 
-from bipedlab.cli import SEED, Command, UsageError, add_out, int_in, one_line
+from bipedlab.commands import SEED, Command, UsageError, add_out, int_in, one_line
 from bipedlab.outputs import final_path
 
 TRIALS = int_in(1, 10_000_000)

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 import os
 
-from bipedlab.cli import SEED, Command, UsageError, add_save, float_in, int_in, text
+from bipedlab.commands import SEED, Command, UsageError, add_save, float_in, int_in, text
 
 ROBOT = "model"
 CONTROLLERS = ["iolin", "pd"]

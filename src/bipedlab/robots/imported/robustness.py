@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import os
 
-from bipedlab.cli import UsageError, float_in, int_in, text
+from bipedlab.commands import UsageError, float_in, int_in, text
 from bipedlab.robustness import options
 
 ROBOT = "model"
