@@ -25,6 +25,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.pytree import pytree, static_field
+from bipedlab.mechanics import arrays as ar
 from bipedlab.mechanics import dynamics as dyn
 from bipedlab.mechanics import kinematics as kin
 from bipedlab.mechanics.tree import Model
@@ -164,12 +165,27 @@ def dense(H: list, like) -> jax.Array:
     return dyn.dense(H, like)
 
 
+def _matrices(model: Coupled):
+    return jnp.asarray(np.asarray(model.T)), jnp.asarray(np.asarray(model.R).reshape(-1, model.n))
+
+
 def mass_matrix(model: Coupled, q) -> jax.Array:
+    """M(q) (n, n); for a tree of revolute joints in the array form of
+    :mod:`bipedlab.mechanics.arrays` (a few matrix products), otherwise from the scalar
+    entries."""
+    if ar.applies(model.tree):
+        T, R = _matrices(model)
+        return T.T @ ar.mass_matrix(model.tree, T @ q) @ T + R.T @ (model.rotor_inertia[:, None] * R)
     fr = kin.frames(model.tree, tree_coordinates(model, q))
     return dense(mass_matrix_entries(model, fr), q[0])
 
 
 def bias(model: Coupled, q, qd) -> jax.Array:
+    """Coriolis, centrifugal, gravity and constant-weight forces (n,) (array form for a tree
+    of revolute joints, as :func:`mass_matrix`)."""
+    if ar.applies(model.tree):
+        T, _ = _matrices(model)
+        return T.T @ ar.bias(model.tree, T @ q, T @ qd) + model.weight
     fr, vel = state_frames(model, q, qd)
     return jnp.stack(bias_entries(model, fr, vel))
 
@@ -190,11 +206,16 @@ def point_motion(model: Coupled, fr: kin.Frames, vel: kin.Velocities, point: int
 
 
 def point_position(model: Coupled, q, point: str) -> jax.Array:
+    if ar.applies(model.tree):
+        return ar.point_position(model.tree, tree_coordinates(model, q), model.tree.point_index(point))
     return kin.point_position(model.tree, tree_coordinates(model, q), point)
 
 
 def point_jacobian(model: Coupled, q, point: str) -> jax.Array:
-    return kin.point_jacobian(model.tree, tree_coordinates(model, q), point) @ jnp.asarray(np.asarray(model.T))
+    T = jnp.asarray(np.asarray(model.T))
+    if ar.applies(model.tree):
+        return ar.point_jacobian(model.tree, T @ q, model.tree.point_index(point)) @ T
+    return kin.point_jacobian(model.tree, tree_coordinates(model, q), point) @ T
 
 
 def kinetic_energy(model: Coupled, q, qd) -> jax.Array:
