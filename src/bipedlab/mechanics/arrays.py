@@ -27,11 +27,10 @@ MuJoCo on random states).
 """
 from __future__ import annotations
 
-import functools
-
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.mechanics import kinematics as kin
 from bipedlab.mechanics.tree import PRISMATIC, Model
 
 
@@ -40,41 +39,23 @@ def applies(model: Model) -> bool:
     return PRISMATIC not in model.joints[1:]
 
 
-@functools.lru_cache(maxsize=64)
-def _structure(parents: tuple, point_bodies: tuple):
-    """Constant structure of a revolute tree: angle map A (nb, nq), and selection tensors
-    S (nb, nb, nb) and SP (npt, nb, nb) with S[b, k, c] = 1 where c is the child of k on the
-    way from the root to b (k a strict ancestor of b), SP the same for each point's body."""
-    nb = len(parents)
-    nq = 2 + nb
-    anc = []
-    for b in range(nb):
-        chain, a = [], b
-        while a >= 0:
-            chain.append(a)
-            a = parents[a]
-        anc.append(tuple(reversed(chain)))
-    A = np.zeros((nb, nq))
-    for b in range(nb):
-        A[b, 2] = 1.0
-        for a in anc[b][1:]:
-            A[b, 2 + a] = 1.0
-    S = np.zeros((nb, nb, nb))
-    for b in range(nb):
-        chain = anc[b]
+def _selection(model: Model) -> np.ndarray:
+    """S (nb, nb, nb) with S[b, k, c] = 1 where c is the child of k on the way from the root
+    to b (k a strict ancestor of b)."""
+    S = np.zeros((model.nb,) * 3)
+    for b in range(model.nb):
+        chain = model.ancestors(b)
         for k, c in zip(chain[:-1], chain[1:]):
             S[b, k, c] = 1.0
-    SP = S[list(point_bodies)] if point_bodies else np.zeros((0, nb, nb))
-    return A, S, SP
+    return S
 
 
-def angle_map(model: Model) -> np.ndarray:
-    """The constant A with body angles ``phi = A q``."""
-    return _structure(model.parents, model.point_bodies)[0]
+#: the constant A with body angles ``phi = A q``
+angle_map = kin.angle_map
 
 
 def _com_coefficients(model: Model):
-    _, S, _ = _structure(model.parents, model.point_bodies)
+    S = _selection(model)
     eye = jnp.eye(model.nb)
     cx = jnp.einsum("bkc,c->bk", S, model.offset[:, 0]) + eye * model.com[:, 0]
     cy = jnp.einsum("bkc,c->bk", S, model.offset[:, 1]) + eye * model.com[:, 1]
@@ -82,11 +63,11 @@ def _com_coefficients(model: Model):
 
 
 def _point_coefficients(model: Model, point: int):
-    _, _, SP = _structure(model.parents, model.point_bodies)
     b = model.point_bodies[point]
+    Sb = _selection(model)[b]
     onehot = jnp.asarray(np.eye(model.nb)[b])
-    cx = SP[point] @ model.offset[:, 0] + onehot * model.point_offset[point, 0]
-    cy = SP[point] @ model.offset[:, 1] + onehot * model.point_offset[point, 1]
+    cx = Sb @ model.offset[:, 0] + onehot * model.point_offset[point, 0]
+    cy = Sb @ model.offset[:, 1] + onehot * model.point_offset[point, 1]
     return cx, cy
 
 
@@ -101,16 +82,11 @@ def _base(model: Model, like):
     return ex, ey
 
 
-def _motion(model: Model, cx, cy, c, s, q):
-    """Positions (x, y) and Jacobians (Jx, Jy) (..., nq) of points with coefficients (cx, cy)
-    (..., nb)."""
+def _jacobians(model: Model, cx, cy, c, s, q):
+    """Jacobians (Jx, Jy) (..., nq) of points with coefficients (cx, cy) (..., nb)."""
     A = jnp.asarray(angle_map(model))
-    x = q[0] + cx @ c - cy @ s
-    y = q[1] + cx @ s + cy @ c
     ex, ey = _base(model, q)
-    jx = ex + (-(cx * s) - cy * c) @ A
-    jy = ey + (cx * c - cy * s) @ A
-    return x, y, jx, jy
+    return ex + (-(cx * s) - cy * c) @ A, ey + (cx * c - cy * s) @ A
 
 
 def _accel(cx, cy, c, s, w2):
@@ -123,7 +99,7 @@ def mass_matrix(model: Model, q):
     A = jnp.asarray(angle_map(model))
     c, s = _trig(model, q)
     cx, cy = _com_coefficients(model)
-    _, _, jx, jy = _motion(model, cx, cy, c, s, q)
+    jx, jy = _jacobians(model, cx, cy, c, s, q)
     m = model.mass[:, None]
     M = jx.T @ (m * jx) + jy.T @ (m * jy) + A.T @ (model.inertia[:, None] * A)
     R = model.rotor_ratios
@@ -135,7 +111,7 @@ def bias(model: Model, q, qd):
     A = jnp.asarray(angle_map(model))
     c, s = _trig(model, q)
     cx, cy = _com_coefficients(model)
-    _, _, jx, jy = _motion(model, cx, cy, c, s, q)
+    jx, jy = _jacobians(model, cx, cy, c, s, q)
     w = A @ qd
     ax, ay = _accel(cx, cy, c, s, w * w)
     return jx.T @ (model.mass * ax) + jy.T @ (model.mass * (ay + model.gravity))
@@ -152,7 +128,7 @@ def point_jacobian(model: Model, q, point: int):
     """Jacobian (2, nq) of the model's point with index ``point``."""
     c, s = _trig(model, q)
     cx, cy = _point_coefficients(model, point)
-    _, _, jx, jy = _motion(model, cx, cy, c, s, q)
+    jx, jy = _jacobians(model, cx, cy, c, s, q)
     return jnp.stack([jx, jy])
 
 

@@ -40,7 +40,7 @@ class Velocities:
     a_origin: list
 
 
-def _angle_map(model: Model) -> np.ndarray:
+def angle_map(model: Model) -> np.ndarray:
     """Constant matrix A with body absolute angles = A q (revolute joints add angles)."""
     A = np.zeros((model.nb, model.nq))
     for b in range(model.nb):
@@ -53,7 +53,7 @@ def _angle_map(model: Model) -> np.ndarray:
 
 def frames(model: Model, q) -> Frames:
     """World positions and orientations of every body for coordinates q."""
-    angles = jnp.asarray(_angle_map(model)) @ q
+    angles = jnp.asarray(angle_map(model)) @ q
     # one vector sin/cos, held behind a barrier so XLA does not recompute it per consumer
     trig = jax.lax.optimization_barrier(jnp.stack([jnp.cos(angles), jnp.sin(angles)]))
     angle, cs, origin, com, axis = [], [], [], [], []
