@@ -67,6 +67,7 @@ import jax
 import jax.numpy as jnp
 
 from bipedlab.pytree import pytree, static_field
+from bipedlab.sim.carry import joint
 from bipedlab.sim.events import (StepResult, bisection, bisection_step, first_on_grid, flow_to_event,
                                  linear_crossing, newton)
 from bipedlab.sim.integrators import rk4, rk4_t_scan
@@ -384,7 +385,7 @@ def step_to_guard(flow: Callable, s, w, guard: Callable, h0, iterations: int = 4
     def g(h):
         return guard(s + h, integrator(flow, s, w, h)[0])
 
-    h = newton(g, h0, iterations)
+    h = newton(g, joint(h0, s, w), iterations)
     return s + h, integrator(flow, s, w, h)[0]
 
 

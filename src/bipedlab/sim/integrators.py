@@ -75,6 +75,8 @@ def rk4_t_scan(f: Callable, t, x, h):
     import jax
     import jax.numpy as jnp
 
+    from bipedlab.sim.carry import joint
+
     coeffs = jnp.stack([jnp.asarray(_STAGE_OFFSET), jnp.asarray([1.0, 2.0, 2.0, 1.0]) / 6.0], 1)
 
     def stage(carry, c):
@@ -82,7 +84,7 @@ def rk4_t_scan(f: Callable, t, x, h):
         dx, aux = f(t + c[0] * h, x + c[0] * h * k)
         return (acc + c[1] * h * dx, dx), aux
 
-    (xn, _), auxs = jax.lax.scan(stage, (x, jnp.zeros_like(x)), coeffs)
+    (xn, _), auxs = jax.lax.scan(stage, joint((x, jnp.zeros_like(x)), t, h), coeffs)
     return xn, jax.tree_util.tree_map(lambda a: a[0], auxs)
 
 

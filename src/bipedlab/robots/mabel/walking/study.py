@@ -126,19 +126,18 @@ def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_chec
     vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
     z0, x0 = md.section_state(m_zd, design)
     out = {}
-    rho = lambda x: mp.restricted_map(m_zd, vc, x)  # noqa: E731
-    xs, J, res = mp.fixed_point(rho, x0)
+    xs, J, res = mp.fixed_point(mp.restricted_at, x0, args=(m_zd, vc))
     out["hzd"] = dict(**_eig_summary(J), fixed_point_residual=res, map="restricted (eq. 48)",
                       zero_dynamics=f"{design_model} design model" if design_model != "full" else "walking model")
     if fd_check:
-        Jfd = mp.central_differences(rho, xs)
+        Jfd = mp.central_differences(mp.restricted_at, xs, args=(m_zd, vc))
         out["hzd"]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
     for kind in controllers:
-        P = lambda z, kind=kind: mp.full_map(m, kind, gains, vc, z)  # noqa: E731
-        zs, J, res = mp.fixed_point(P, z0)
+        P, args = mp.full_map_at(kind), (m, gains, vc)
+        zs, J, res = mp.fixed_point(P, z0, args=args)
         out[kind] = dict(**_eig_summary(J), fixed_point_residual=res, map="full order (eq. 44)")
         if fd_check:
-            Jfd = mp.central_differences(P, zs)
+            Jfd = mp.central_differences(P, zs, args=args)
             out[kind]["fd_rel_error"] = float(np.max(np.abs(np.asarray(J) - Jfd)) / np.max(np.abs(Jfd)))
     return out
 
