@@ -4,10 +4,10 @@
 batch axis) by a fixed-point iteration: a carry that starts without one (a zero initial
 guess, a nominal parameter set that an impact later replaces by a state-dependent one) but
 acquires one inside the body makes the rule trace the whole body again. Scans nested inside
-scans multiply those re-traces: MABEL's Poincaré maps (sub-phases, RK4 nodes, RK4 stages,
-Newton iterations) spent most of their trace time in them. :func:`joint` gives every leaf of
-a carry the tangents and batch axes of all of them up front, at the cost of one multiply-add
-per leaf.
+scans multiply those re-traces: a step-to-step map written as scans over sub-phases, RK4
+nodes, RK4 stages and Newton iterations can spend most of its trace time in them.
+:func:`joint` gives every leaf of a carry the tangents and batch axes of all of them up
+front, at the cost of one multiply-add per leaf.
 """
 from __future__ import annotations
 
