@@ -13,10 +13,10 @@ import jax.numpy as jnp
 import numpy as np
 
 #: XLA options of the Jacobian programs. They run a handful of times per analysis (one per
-#: Newton iteration), so compiling them at backend optimisation level 0 pays: on MABEL's
-#: restricted and full Poincaré maps (2-core AMD EPYC) it cut compilation 33.8 s -> 25.6 s and
-#: 22.2 s -> 16.5 s while a Jacobian took 0.06 s -> 0.10 s and 0.06 s -> 0.19 s; the
-#: Jacobians agree to 1e-13 relative.
+#: Newton iteration), so compiling them at backend optimisation level 0 pays: on a compliant
+#: four-sub-phase walker's restricted and full Poincaré maps (2-core AMD EPYC) it cut
+#: compilation 33.8 s -> 25.6 s and 22.2 s -> 16.5 s while a Jacobian took 0.06 s -> 0.10 s
+#: and 0.06 s -> 0.19 s; the Jacobians agree to 1e-13 relative.
 JACOBIAN_COMPILER_OPTIONS = {"xla_backend_optimization_level": 0}
 
 _VJ: weakref.WeakKeyDictionary = weakref.WeakKeyDictionary()
