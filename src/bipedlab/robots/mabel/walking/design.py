@@ -216,10 +216,14 @@ def _compiled(cost):
     if cost not in _COMPILED:
         def parts(m, x, speed, window):
             fig, eq, ineq, _ = evaluate(m, x, speed, min_step=window[0], max_step=window[1])
-            return jnp.concatenate([_scalar_cost(fig, cost)[None], eq, ineq])
+            y = jnp.concatenate([_scalar_cost(fig, cost)[None], eq, ineq])
+            return y, y
 
-        _COMPILED[cost] = jax.jit(lambda m, x, speed, window: (parts(m, x, speed, window),
-                                                                jax.jacfwd(parts, argnums=1)(m, x, speed, window)))
+        def value_and_jacobian(m, x, speed, window):  # the value is the jvp's primal: traced once
+            J, y = jax.jacfwd(parts, argnums=1, has_aux=True)(m, x, speed, window)
+            return y, J
+
+        _COMPILED[cost] = jax.jit(value_and_jacobian)
     return _COMPILED[cost]
 
 
