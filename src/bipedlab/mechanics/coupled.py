@@ -165,15 +165,23 @@ def dense(H: list, like) -> jax.Array:
     return dyn.dense(H, like)
 
 
+def array_form(model: Coupled) -> bool:
+    """Whether the model's dynamics take the array form of :mod:`bipedlab.mechanics.arrays`:
+    a tree of revolute joints every one of which moves with the coordinates. A model that
+    locks joints of its tree (a rig restricted to a few coordinates) keeps the scalar
+    entries, whose structural zeros skip the locked bodies: for a two-coordinate leg of an
+    eleven-joint tree the scalar form runs 4x faster."""
+    return ar.applies(model.tree) and bool(np.all(np.any(np.asarray(model.T) != 0.0, axis=1)))
+
+
 def _matrices(model: Coupled):
     return jnp.asarray(np.asarray(model.T)), jnp.asarray(np.asarray(model.R).reshape(-1, model.n))
 
 
 def mass_matrix(model: Coupled, q) -> jax.Array:
-    """M(q) (n, n); for a tree of revolute joints in the array form of
-    :mod:`bipedlab.mechanics.arrays` (a few matrix products), otherwise from the scalar
-    entries."""
-    if ar.applies(model.tree):
+    """M(q) (n, n); in the array form of :mod:`bipedlab.mechanics.arrays` (a few matrix
+    products) where :func:`array_form` holds, otherwise from the scalar entries."""
+    if array_form(model):
         T, R = _matrices(model)
         return T.T @ ar.mass_matrix(model.tree, T @ q) @ T + R.T @ (model.rotor_inertia[:, None] * R)
     fr = kin.frames(model.tree, tree_coordinates(model, q))
@@ -181,9 +189,9 @@ def mass_matrix(model: Coupled, q) -> jax.Array:
 
 
 def bias(model: Coupled, q, qd) -> jax.Array:
-    """Coriolis, centrifugal, gravity and constant-weight forces (n,) (array form for a tree
-    of revolute joints, as :func:`mass_matrix`)."""
-    if ar.applies(model.tree):
+    """Coriolis, centrifugal, gravity and constant-weight forces (n,) (array form where
+    :func:`array_form` holds, as :func:`mass_matrix`)."""
+    if array_form(model):
         T, _ = _matrices(model)
         return T.T @ ar.bias(model.tree, T @ q, T @ qd) + model.weight
     fr, vel = state_frames(model, q, qd)
@@ -206,14 +214,14 @@ def point_motion(model: Coupled, fr: kin.Frames, vel: kin.Velocities, point: int
 
 
 def point_position(model: Coupled, q, point: str) -> jax.Array:
-    if ar.applies(model.tree):
+    if array_form(model):
         return ar.point_position(model.tree, tree_coordinates(model, q), model.tree.point_index(point))
     return kin.point_position(model.tree, tree_coordinates(model, q), point)
 
 
 def point_jacobian(model: Coupled, q, point: str) -> jax.Array:
     T = jnp.asarray(np.asarray(model.T))
-    if ar.applies(model.tree):
+    if array_form(model):
         return ar.point_jacobian(model.tree, T @ q, model.tree.point_index(point)) @ T
     return kin.point_jacobian(model.tree, tree_coordinates(model, q), point) @ T
 

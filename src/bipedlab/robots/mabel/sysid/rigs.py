@@ -126,7 +126,9 @@ def leg_flow(rig: LegRig, x, u, active):
     a = jnp.asarray(active, dtype=jnp.float64)
     both = a[:, None] * a[None, :]
     Mc = both * M + jnp.diag(1.0 - a)
-    qdd = jnp.linalg.solve(Mc, a * (tau - h))
+    b = a * (tau - h)
+    det = Mc[0, 0] * Mc[1, 1] - Mc[0, 1] * Mc[1, 0]   # two coordinates: Cramer's rule, no LAPACK call
+    qdd = jnp.stack([Mc[1, 1] * b[0] - Mc[0, 1] * b[1], Mc[0, 0] * b[1] - Mc[1, 0] * b[0]]) / det
     return jnp.concatenate([qd, qdd])
 
 
