@@ -66,3 +66,24 @@ def test_coupled_model_uses_the_small_kernel():
     big = count_eqns(jax.make_jaxpr(lambda q: cp.dense(cp.mass_matrix_entries(
         m, kin.frames(m.tree, cp.tree_coordinates(m, q))), q[0]))(q))
     assert small * 5 < big
+
+
+def test_a_mechanism_that_locks_joints_keeps_the_scalar_form():
+    """A model restricted to a few coordinates (MABEL's leg rig: 2 of 11 tree joints move)
+    uses the scalar entries, whose structural zeros skip the locked bodies; its mass matrix
+    and bias equal the array kernel's projected through the constant map, and the full
+    walking model still takes the array form."""
+    from bipedlab.robots.mabel import sysid
+    from bipedlab.robots.mabel.sysid import rigs
+
+    rig = rigs.leg_rig(sysid.perturbed(0), "L").body
+    assert not cp.array_form(rig) and cp.array_form(wk.walking_model().body)
+    T = jnp.asarray(np.asarray(rig.T))
+    R = jnp.asarray(np.asarray(rig.R).reshape(-1, rig.n))
+    rng = np.random.default_rng(6)
+    for _ in range(3):
+        q, qd = jnp.asarray(rng.normal(size=rig.n)), jnp.asarray(5.0 * rng.normal(size=rig.n))
+        M = T.T @ ar.mass_matrix(rig.tree, T @ q) @ T + R.T @ (rig.rotor_inertia[:, None] * R)
+        np.testing.assert_allclose(cp.mass_matrix(rig, q), M, atol=1e-12 * float(jnp.abs(M).max()))
+        b = T.T @ ar.bias(rig.tree, T @ q, T @ qd) + rig.weight
+        np.testing.assert_allclose(cp.bias(rig, q, qd), b, atol=1e-12 * float(jnp.abs(b).max()))
