@@ -87,3 +87,20 @@ def test_a_mechanism_that_locks_joints_keeps_the_scalar_form():
         np.testing.assert_allclose(cp.mass_matrix(rig, q), M, atol=1e-12 * float(jnp.abs(M).max()))
         b = T.T @ ar.bias(rig.tree, T @ q, T @ qd) + rig.weight
         np.testing.assert_allclose(cp.bias(rig, q, qd), b, atol=1e-12 * float(jnp.abs(b).max()))
+
+
+def test_the_batched_kernel_is_the_scalar_form_with_the_same_dynamics():
+    """cp.batched picks the scalar form (the faster one under vmap) for a model the array form
+    would take; both give the walking model's mass matrix, bias and toe Jacobian to rounding,
+    and restrict keeps the choice."""
+    m = wk.walking_model().body
+    s = cp.batched(m)
+    assert cp.array_form(m) and not cp.array_form(s) and s.kernel == "scalar"
+    assert wk.walking_model(kernel="scalar").body.kernel == "scalar"
+    assert cp.restrict(s, np.eye(s.n), s.coord_names).kernel == "scalar"
+    rng = np.random.default_rng(7)
+    q, qd = jnp.asarray(rng.normal(size=m.n)), jnp.asarray(3.0 * rng.normal(size=m.n))
+    for f in (lambda b: cp.mass_matrix(b, q), lambda b: cp.bias(b, q, qd),
+              lambda b: cp.point_jacobian(b, q, b.tree.point_names[-1])):
+        a = np.asarray(f(m))
+        np.testing.assert_allclose(np.asarray(f(s)), a, atol=1e-12 * np.abs(a).max())

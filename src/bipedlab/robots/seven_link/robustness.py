@@ -22,6 +22,7 @@ def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, 
     import jax.numpy as jnp
 
     from bipedlab import robustness as rb
+    from bipedlab.mechanics import coupled as cp
     from bipedlab.robots.seven_link import contact as sc
     from bipedlab.robots.seven_link import controller as ctl
     from bipedlab.robots.seven_link import robot as sl7
@@ -29,6 +30,7 @@ def study(steps: int = 8, params: str = "tuned", max_speed_change: float = 0.6, 
     from bipedlab.sim import loop as sl
 
     r = sl7.model()
+    r = r.replace(coupled=cp.batched(r.coupled))   # the trials run batched: the scalar kernel is the faster
     settings = ss.settings_for(steps)
     p = ctl.make_params(r, ss.gains(params), unilateral_check=ss.UNILATERAL_CHECK[params])
     loop = sc.closed_loop(r, ctl.policy, settings, ctl.log_vector)
