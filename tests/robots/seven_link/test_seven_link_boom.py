@@ -143,3 +143,26 @@ def test_short_boom_walk_record():
 
 def test_cli_rejects_an_unknown_setup(capsys):
     expect_usage_error(["walk", "seven-link", "--setup", "treadmill"], capsys, "--setup")
+
+
+def test_the_planar_walk_is_the_boom_program_with_every_part_off():
+    """The planar model runs as the boom setup with all its additions zero: after a planar
+    walk, a boom walk of the same length compiles no program (JAX's compile events), and the
+    planar walk equals the every-part-off boom walk bit for bit while the full boom differs."""
+    compiles = []
+
+    def listen(name, duration, **_):
+        if name == "/jax/core/compile/backend_compile_duration":
+            compiles.append(duration)
+
+    planar = w.run_walk(2, "paper")
+    jax.monitoring.register_event_duration_secs_listener(listen)
+    try:
+        off = w.run_walk(2, "paper", setup="boom", without=su.PARTS)
+        boom = w.run_walk(2, "paper", setup="boom")
+    finally:
+        jax.monitoring.unregister_event_duration_listener(listen)
+    assert compiles == []
+    for a, b in zip(jax.tree_util.tree_leaves(planar), jax.tree_util.tree_leaves(off)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    assert not np.array_equal(np.asarray(boom.td_time), np.asarray(planar.td_time))

@@ -519,6 +519,11 @@ def result(s: LoopState, settings: Settings) -> SimResult:
                      c.log_active, c.log_ctrl, c.log_force)
 
 
+#: :func:`initial_plant` compiled once per (log width, settings), the robot a traced argument
+#: (a jit of a fresh closure per walk compiled it again on every call).
+_initial_plant = jax.jit(initial_plant, static_argnums=(3, 4))
+
+
 def simulate(r: sl.SevenLink, policy: Callable, params, cstate0, x0, active0, settings: Settings = Settings(),
              log_fn: Callable | None = None, loop: SampledLoop | None = None, chunk: int = 250) -> SimResult:
     """Run the closed loop from (x0, active0) (x0 is projected onto active0 first) with
@@ -531,8 +536,7 @@ def simulate(r: sl.SevenLink, policy: Callable, params, cstate0, x0, active0, se
     log_fn = log_fn or (lambda c: jnp.zeros(0))
     loop = loop or closed_loop(r, policy, settings, log_fn)
     nlog_c = jax.eval_shape(log_fn, cstate0).shape[0]
-    plant0 = jax.jit(lambda x0, a0: initial_plant(r, x0, a0, nlog_c, settings))(jnp.asarray(x0, jnp.float64),
-                                                                                jnp.asarray(active0))
+    plant0 = _initial_plant(r, jnp.asarray(x0, jnp.float64), jnp.asarray(active0), nlog_c, settings)
     s0 = loop_initial_state(plant0, None, cstate0)
     s, _ = loop_simulate(loop, params, s0, settings.n_samples, chunk=chunk,
                          until=lambda s: not bool(running(settings, s.x)))

@@ -48,6 +48,10 @@ START_SPEED = 0.5
 
 
 # ----------------------------------------------------------------------------- walking
+#: the constraint projection compiled once (called eagerly, its Newton loop compiled anew per call)
+_project = jax.jit(sc.project, static_argnames=("newton",))
+
+
 def initial_condition(r: sl.SevenLink | None = None, speed: float = START_SPEED):
     """(x0 (18,), active0 (6,)): leg 1 flat on the ground at x = 0 with its knee locked, leg 2
     in swing; the hip velocity guess ``speed`` is projected onto the constraints by the
@@ -61,7 +65,7 @@ def initial_condition(r: sl.SevenLink | None = None, speed: float = START_SPEED)
     # the stance constraints, to convergence) and make the velocity consistent
     anchors = jnp.stack([sl.point_position(r, q, n) for n in sl.CONTACTS])[:, 0]
     for _ in range(5):
-        x, _ = sc.project(r, x, active, anchors)
+        x, _ = _project(r, x, active, anchors)
     return x, active
 
 
@@ -86,20 +90,10 @@ def settings_for(steps: int) -> sc.Settings:
 
 
 @functools.lru_cache(maxsize=8)
-def _simulator(settings: sc.Settings):
-    r = sl.model()
-    loop = sc.closed_loop(r, ctl.policy, settings, ctl.log_vector)
-
-    def run(x0, active0, p, c0):
-        return sc.simulate(r, ctl.policy, p, c0, x0, active0, settings, ctl.log_vector, loop=loop)
-
-    return run
-
-
-@functools.lru_cache(maxsize=8)
 def _setup_simulator(settings: sc.Settings):
     """The closed loop with the plant's robot in the parameters (``(policy params, plant)``),
-    so every :class:`~bipedlab.robots.seven_link.robot.Setup` shares one compiled program."""
+    so every :class:`~bipedlab.robots.seven_link.robot.Setup`, the planar model's all-zero one
+    included, shares one compiled program."""
     def policy(pp, c, t, x, a):
         return ctl.policy(pp[0], c, t, x, a)
 
@@ -133,7 +127,7 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
              speed: float = START_SPEED, setup: str = "planar", without=(), boom_options: dict | None = None,
              knee_lock_torque: float = su.KNEE_LOCK_TORQUE):
     """Simulate the closed loop; returns the raw :class:`~bipedlab.robots.seven_link.contact.SimResult`.
-    setup: "planar" (the planar model) or "boom" (the plant of
+    setup: "planar" (the planar model: the boom setup with every part off) or "boom" (the plant of
     :mod:`bipedlab.robots.seven_link.setup`, less the parts named in ``without``; the
     controller keeps the planar model, the knee lock torque is the controller's);
     boom_options: keyword arguments of :func:`bipedlab.robots.seven_link.setup.boom` (the
@@ -141,13 +135,11 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
     r = sl.model()
     if x0 is None:
         x0, active0 = initial_condition(r, speed)
-    if setup == "planar":
-        p = ctl.make_params(r, gains(params), sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
-        c0 = ctl.initial_state(x0)
-        return _simulator(settings_for(steps))(x0, active0, p, c0)
-    if setup != "boom":
+    if setup not in su.SETUPS:
         raise ValueError(f"seven-link: setup must be one of {list(su.SETUPS)}, got {setup!r}")
-    on, s = boom_setup(without, **(boom_options or {}))
+    # the planar model is the boom setup with every part off (its additions exactly zero), so
+    # both run on one compiled program
+    on, s = boom_setup(su.PARTS if setup == "planar" else without, **(boom_options or {}))
     g = gains(params).replace(knee_lock_torque=jnp.asarray(knee_lock_torque * on["knee_lock"], jnp.float64))
     p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
     plant = su.plant(s)
