@@ -155,11 +155,11 @@ def test_the_planar_walk_is_the_boom_program_with_every_part_off():
         if name == "/jax/core/compile/backend_compile_duration":
             compiles.append(duration)
 
-    planar = w.run_walk(2, "paper")
+    planar = w.run_walk(BOOM_STEPS, "paper")
     jax.monitoring.register_event_duration_secs_listener(listen)
     try:
-        off = w.run_walk(2, "paper", setup="boom", without=su.PARTS)
-        boom = w.run_walk(2, "paper", setup="boom")
+        off = w.run_walk(BOOM_STEPS, "paper", setup="boom", without=su.PARTS)
+        boom = w.run_walk(BOOM_STEPS, "paper", setup="boom")
     finally:
         jax.monitoring.unregister_event_duration_listener(listen)
     assert compiles == []
