@@ -171,12 +171,18 @@ def dense(H: list, like) -> jax.Array:
     return dyn.dense(H, like)
 
 
+#: The values of :attr:`Coupled.kernel`.
+KERNELS = ("auto", "array", "scalar")
+
+
 def array_form(model: Coupled) -> bool:
     """Whether the model's dynamics take the array form of :mod:`bipedlab.mechanics.arrays`:
     a tree of revolute joints every one of which moves with the coordinates. A model that
     locks joints of its tree (a rig restricted to a few coordinates) keeps the scalar
     entries, whose structural zeros skip the locked bodies: for a two-coordinate leg of an
     eleven-joint tree the scalar form runs 4x faster."""
+    if model.kernel not in KERNELS:
+        raise ValueError(f"Coupled.kernel must be one of {', '.join(KERNELS)}, got {model.kernel!r}")
     if model.kernel != "auto":
         return model.kernel == "array" and ar.applies(model.tree)
     return ar.applies(model.tree) and bool(np.all(np.any(np.asarray(model.T) != 0.0, axis=1)))

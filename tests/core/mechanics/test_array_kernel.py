@@ -98,6 +98,8 @@ def test_the_batched_kernel_is_the_scalar_form_with_the_same_dynamics():
     assert cp.array_form(m) and not cp.array_form(s) and s.kernel == "scalar"
     assert wk.walking_model(kernel="scalar").body.kernel == "scalar"
     assert cp.restrict(s, np.eye(s.n), s.coord_names).kernel == "scalar"
+    with pytest.raises(ValueError, match="kernel must be one of auto, array, scalar, got 'arrays'"):
+        cp.mass_matrix(m.replace(kernel="arrays"), jnp.zeros(m.n))
     rng = np.random.default_rng(7)
     q, qd = jnp.asarray(rng.normal(size=m.n)), jnp.asarray(3.0 * rng.normal(size=m.n))
     for f in (lambda b: cp.mass_matrix(b, q), lambda b: cp.bias(b, q, qd),
