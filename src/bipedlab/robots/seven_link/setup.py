@@ -183,7 +183,9 @@ def boom(boom_inertia: bool = True, foot_turning: bool = True, drive_friction: b
          friction_scale: float = 1.0) -> sl.Setup:
     """The boom setup's additions (:class:`~bipedlab.robots.seven_link.robot.Setup`); each part
     can be switched off (the zero additions of a part leave its terms exactly zero)."""
-    fc = identify_drive_friction()
+    # the friction's identification (two swing stiffnesses by automatic differentiation, 3 s
+    # on a first call) only where the part is on: off, its torques are zero
+    fc = identify_drive_friction() if drive_friction else dict(hip=0.0, knee=0.0, ankle=0.0)
     coulomb = np.tile([fc["hip"], fc["knee"], fc["ankle"]], 2) * friction_scale * float(drive_friction)
     m = arm_mass * float(boom_inertia)
     f = lambda v: jnp.asarray(v, jnp.float64)  # noqa: E731

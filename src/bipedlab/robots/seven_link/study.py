@@ -139,7 +139,7 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
         raise ValueError(f"seven-link: setup must be one of {list(su.SETUPS)}, got {setup!r}")
     # the planar model is the boom setup with every part off (its additions exactly zero), so
     # both run on one compiled program
-    on, s = boom_setup(su.PARTS if setup == "planar" else without, **(boom_options or {}))
+    on, s = boom_setup(su.PARTS) if setup == "planar" else boom_setup(without, **(boom_options or {}))
     g = gains(params).replace(knee_lock_torque=jnp.asarray(knee_lock_torque * on["knee_lock"], jnp.float64))
     p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
     plant = su.plant(s)
