@@ -12,24 +12,45 @@ from typing import Optional
 
 import bipedlab
 
-_SOURCE_HASH: Optional[str] = None
+_SOURCE_HASHES: dict = {}
 
 
-def source_hash() -> str:
+def source_hash(skip: tuple = ()) -> str:
     """sha256 of every .py and .json file of the installed package (paths and contents),
-    computed once per process."""
-    global _SOURCE_HASH
-    if _SOURCE_HASH is None:
+    computed once per process and ``skip``.
+
+    skip: paths relative to the package folder, in POSIX form (``"report"``,
+    ``"robots/mabel"``, ``"robots/atrias/data/paper_running.json"``): the files and folders
+    whose contents a result cannot depend on (see :func:`results_hash`)."""
+    skip = tuple(sorted(skip))
+    if skip not in _SOURCE_HASHES:
         root = Path(bipedlab.__file__).parent
         h = hashlib.sha256()
         for path in sorted(root.rglob("*")):
             if path.suffix in (".py", ".json") and "__pycache__" not in path.parts and path.is_file():
-                h.update(str(path.relative_to(root)).encode())
+                rel = path.relative_to(root).as_posix()
+                if any(rel == s or rel.startswith(s + "/") for s in skip):
+                    continue
+                h.update(rel.encode())
                 h.update(b"\0")
                 h.update(path.read_bytes())
                 h.update(b"\0")
-        _SOURCE_HASH = h.hexdigest()
-    return _SOURCE_HASH
+        _SOURCE_HASHES[skip] = h.hexdigest()
+    return _SOURCE_HASHES[skip]
+
+
+def results_hash(package: Optional[str] = None, extra_skip: tuple = ()) -> str:
+    """:func:`source_hash` of what a robot's study results can depend on: the whole package but
+    the report's own modules (``report``: tables, verdicts and pages, computed from the
+    results) and the other robots' packages (a robot imports no other robot, which the layout
+    test checks). ``package``: the robot's package as ``"robots/<name>"``, or None for a result
+    of no robot package (everything but ``report`` counts). ``extra_skip``: further paths (a
+    paper's values file)."""
+    root = Path(bipedlab.__file__).parent
+    others = tuple(f"robots/{p.name}" for p in sorted((root / "robots").iterdir())
+                   if p.is_dir() and p.name != "__pycache__" and f"robots/{p.name}" != package) \
+        if package is not None else ()
+    return source_hash(("report",) + others + tuple(extra_skip))
 
 
 def code() -> dict:

@@ -1,8 +1,10 @@
 """Running a report's experiments: one progress display over the whole run, compile and run
 time per experiment, and a result cache keyed by a content hash.
 
-The cache key of an experiment hashes the package's source and data files, the experiment's
-paper, name and arguments, and the JAX version: re-running with unchanged code and inputs reuses
+The cache key of an experiment hashes the source and data files its result can depend on (the
+package without the report's own modules, the other robots' packages and the paper's values
+file: :func:`bipedlab.provenance.results_hash`), the experiment's paper, name and arguments,
+and the JAX version: re-running with unchanged code and inputs reuses
 the stored record and figures (``<cache>/reproduce/<key>/``), so rebuilding a report takes
 seconds. The cache folder is ``$BIPEDLAB_CACHE_DIR`` or ``~/.cache/bipedlab``, as for the
 compiled programs.
@@ -27,7 +29,7 @@ from pathlib import Path
 from typing import Callable, Optional
 
 from bipedlab.outputs import dumps_json, fsync_dir, write_atomic
-from bipedlab.provenance import source_hash
+from bipedlab.provenance import results_hash
 from bipedlab.report.spec import Experiment, Paper
 
 COMPILE_EVENTS = ("/jax/core/compile/jaxpr_trace_duration", "/jax/core/compile/jaxpr_to_mlir_module_duration",
@@ -42,10 +44,33 @@ def cache_root() -> Path:
     return Path(base) / "reproduce"
 
 
-def cache_key(paper: str, experiment: str, args: dict) -> str:
+def robot_package(run: Callable) -> Optional[str]:
+    """``"robots/<name>"`` for an experiment function defined in a robot's package, else None."""
+    parts = getattr(run, "__module__", "").split(".")
+    return "/".join(parts[1:3]) if len(parts) > 2 and parts[:2] == ["bipedlab", "robots"] else None
+
+
+def _values_file(values: Optional[str]) -> tuple:
+    """The paper's values file relative to the package folder (skipped by the key), if inside it."""
+    if not values:
+        return ()
+    import bipedlab
+
+    try:
+        return (Path(values).resolve().relative_to(Path(bipedlab.__file__).resolve().parent).as_posix(),)
+    except ValueError:
+        return ()
+
+
+def cache_key(paper: str, experiment: str, args: dict, package: Optional[str] = None,
+              values: Optional[str] = None) -> str:
+    """The key of an experiment's stored result. ``package``: the robot package its function
+    lives in (:func:`robot_package`), ``values``: the paper's values file; the key changes
+    with every file the result can depend on and with none of the others."""
     import jax
 
-    text = json.dumps(dict(source=source_hash(), paper=paper, experiment=experiment, args=args,
+    source = results_hash(package, _values_file(values))
+    text = json.dumps(dict(source=source, paper=paper, experiment=experiment, args=args,
                            jax=jax.__version__, x64=bool(jax.config.jax_enable_x64)), sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
@@ -184,6 +209,10 @@ def _alive(pid: int) -> bool:
     return True
 
 
+def _key(paper: Paper, exp: Experiment, args: dict) -> str:
+    return cache_key(paper.key, exp.name, args, robot_package(exp.run), paper.values)
+
+
 def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callable[[str], None],
                    use_cache: bool = True, run_id: Optional[str] = None) -> Result:
     """Run one experiment (or take its stored result): the record, times and kept files.
@@ -194,7 +223,7 @@ def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callabl
     if args is None:
         res.skipped = exp.skip_reason
         return res
-    key = cache_key(paper.key, exp.name, args)
+    key = _key(paper, exp, args)
     res.key = key
     root = cache_root()
     where = root / key
@@ -305,7 +334,7 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
 def root_has(paper: Paper, exp: Experiment, quick: bool, use_cache: bool = True, run_id: Optional[str] = None) -> bool:
     """Whether the cache holds an entry :func:`run_experiment` would reuse."""
     args = exp.args(quick)
-    return args is not None and _reusable(_stored(cache_root() / cache_key(paper.key, exp.name, args)), use_cache,
+    return args is not None and _reusable(_stored(cache_root() / _key(paper, exp, args)), use_cache,
                                           run_id)
 
 

@@ -110,3 +110,38 @@ def test_a_measure_that_fails_leaves_every_row_unjudged(paper, tmp_path):
     rep = build.build([broken], results, quick=True, out_dir=tmp_path / "r", wall_s=0.0, cpu_s=0.0)
     rows = rep["papers"]["toy"]["rows"]
     assert all(r["agrees"] is None and "ZeroDivisionError" in r["why"] for r in rows)
+
+
+def test_the_key_follows_the_files_a_result_can_depend_on(tmp_path, monkeypatch):
+    """A stored result is keyed by the core and its own robot's package: editing the report's
+    modules, another robot or the paper's values file keeps it; editing its robot or the core
+    does not."""
+    import bipedlab
+    from bipedlab import provenance
+
+    root = tmp_path / "bipedlab"
+    files = {"__init__.py": "", "sim/loop.py": "x = 1", "report/html.py": "y = 1",
+             "robots/alpha/reproduce.py": "z = 1", "robots/alpha/data/paper_alpha.json": "{}",
+             "robots/beta/reproduce.py": "w = 1"}
+    for rel, text in files.items():
+        (root / rel).parent.mkdir(parents=True, exist_ok=True)
+        (root / rel).write_text(text)
+    monkeypatch.setattr(bipedlab, "__file__", str(root / "__init__.py"))
+    values = str(root / "robots/alpha/data/paper_alpha.json")
+
+    def key():
+        monkeypatch.setattr(provenance, "_SOURCE_HASHES", {})
+        return runner.cache_key("alpha", "run", dict(n=1), "robots/alpha", values)
+
+    k0 = key()
+    for rel in ("report/html.py", "robots/beta/reproduce.py", "robots/alpha/data/paper_alpha.json"):
+        (root / rel).write_text((root / rel).read_text() + "\n# edited")
+        assert key() == k0, rel
+    for rel in ("robots/alpha/reproduce.py", "sim/loop.py"):
+        (root / rel).write_text((root / rel).read_text() + "\n# edited")
+        k1 = key()
+        assert k1 != k0, rel
+        k0 = k1
+    assert runner.robot_package(test_the_key_follows_the_files_a_result_can_depend_on) is None
+    from bipedlab.robots.atrias import reproduce
+    assert runner.robot_package(reproduce.EXPERIMENTS[0].run) == "robots/atrias"
