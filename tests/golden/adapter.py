@@ -191,7 +191,8 @@ def seven_link_walk(steps: int = 1) -> dict:
 def atrias_run(seconds: float = 0.5) -> dict:
     from bipedlab.robots.atrias import study as ra
 
-    out, _ = ra.simulate(ra.Settings(seconds=seconds), 1)
+    # bipedlab's controller: the default before the paper's controller became the default
+    out, _ = ra.simulate(ra.Settings(seconds=seconds, controller="bipedlab"), 1)
     k = int(out["n_apex"][0])
     return dict(status=int(out["status"][0]), x=float(out["x"][0]), n_apex=k,
                 bounce=_a(out["bounce"][0, :k]), speed=_a(out["speed"][0, :k]), apex_y=_a(out["apex_y"][0, :k]),

@@ -53,6 +53,9 @@ def _run_arguments(p) -> None:
                         f"NAME one of {', '.join(MODEL_ERRORS)}, REL in {MODEL_ERROR.text}, each NAME once")
     p.add_argument("--energy", choices=catalog.ENERGY, default="regulation",
                    help="stance energy management (default regulation)")
+    p.add_argument("--controller", choices=catalog.CONTROLLERS, default="paper",
+                   help="the paper's controller as published (default), or bipedlab's with three additions: "
+                        + "; ".join(f"{k} ({v})" for k, v in catalog.ADDITIONS.items()))
     p.add_argument("--trials", type=int_in(1, 100_000), default=None, metavar="N",
                    help="run N random terrains (and noise / model-error draws) batched in one compiled call")
     p.add_argument("--seed", type=SEED, default=0, help="seed of the terrain and noise draws")
@@ -83,7 +86,7 @@ def _run(args, progress):
         rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain.startswith("rough")) else 0.0,
         distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
         delay_ms=float(args.delay_ms), delay_compensation=bool(args.delay_compensation), model_error=errs,
-        energy=args.energy, trials=args.trials, seed=int(args.seed))
+        energy=args.energy, trials=args.trials, seed=int(args.seed), controller=args.controller)
     return run_atrias.study(st, out_dir=args.out, progress=run_atrias.progress_bar), run_atrias.summary
 
 

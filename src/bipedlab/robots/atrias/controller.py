@@ -159,6 +159,22 @@ def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPoli
                       bool(regulation), float(c))
 
 
+def paper_controller(cp: CtrlParams) -> CtrlParams:
+    """The paper's controller as published: ``cp`` without bipedlab's three additions
+    (:data:`bipedlab.robots.atrias.catalog.ADDITIONS`): no integral action on the lift-off
+    energy error (``ki_energy`` 0), no landing-angle trim (``ki_angle`` 0) and lift-off at the
+    first sample the virtual leg is longer than its rest length and extending (``c_min`` and
+    ``t_stance_min`` 0: no debounce). The parameters stay traced values of the same
+    structure, so both controllers run on one compiled program.
+
+    What stays is this model's reading of the paper where it is silent or, in these
+    coordinates, printed with the other sign (the module's list above): the exact landing
+    geometry, the compensated reference, the stiffness modulation read with the leg-length
+    rate, the pitch feedback's sign, the sliding test, the swing-leg length and the lift-off
+    energy of the whole robot's COM."""
+    return cp.replace(ki_energy=0.0, ki_angle=0.0, c_min=0.0, t_stance_min=0.0)
+
+
 _stance_flow = jax.jit(slip.stance_flow)
 
 

@@ -4,6 +4,10 @@ noise, delay and model errors (Sec. IV-C), through :mod:`bipedlab.robots.atrias.
 rough cases batched over random terrains). ``--quick`` runs every experiment, the batched ones
 on 4 terrains of 30 m each: one compiled program serves them all (the controller parameters,
 noise and delay are traced arguments of the study's chunk), the flat run with its log another.
+The judged rows run the paper's controller as published (``--controller paper``);
+bipedlab's controller, with its three additions (:data:`~bipedlab.robots.atrias.catalog.ADDITIONS`),
+runs flat ground and the mass and stiffness errors beside them (experiments ``*-bipedlab``), in
+rows labelled "bipedlab's controller" that are shown, not judged.
 Paper values: ``data/paper_running.json``."""
 from __future__ import annotations
 
@@ -12,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.report import Experiment, Figure, Paper, Skip, dig
+from bipedlab.report import Experiment, Figure, Measured, Paper, Skip, dig
 
 DATA = Path(__file__).parent / "data" / "paper_running.json"
 TRIALS, QUICK_TRIALS = 32, 4
@@ -24,7 +28,8 @@ ANIMATION_S = 3.0
 def _settings(args):
     from bipedlab.robots.atrias import study
 
-    keys = ("terrain", "step_height", "distance", "noise", "delay_ms", "energy", "trials", "seed", "rough_grade_percent")
+    keys = ("terrain", "step_height", "distance", "noise", "delay_ms", "energy", "trials", "seed", "rough_grade_percent",
+            "controller")
     # "figures": write the apex figure of a batched run too
     kw = {k: args[k] for k in keys if k in args}
     kw["model_error"] = tuple((k, float(v)) for k, v in sorted(args.get("model_error", {}).items()))
@@ -36,8 +41,9 @@ def _run(args, out, progress):
 
     st = _settings(args)
     single = st.trials is None
-    rec = study.study(st, out_dir=out if (single or args.get("figures")) else None, progress=None)
-    if single and out:
+    figures = args.get("figures", single)
+    rec = study.study(st, out_dir=out if figures else None, progress=None)
+    if single and out and figures:
         rec["animation"] = animate(Path(out) / "run_atrias.npz", Path(out) / "running.html")
     return rec
 
@@ -69,7 +75,8 @@ def animate(npz, path, seconds: float = ANIMATION_S, fps: float = 40.0) -> str:
 
 
 def _rough(**kw):
-    base = dict(terrain="rough", step_height=0.25, distance=DISTANCE, trials=TRIALS, seed=0, energy="regulation")
+    base = dict(terrain="rough", step_height=0.25, distance=DISTANCE, trials=TRIALS, seed=0, energy="regulation",
+                controller="paper")
     base.update(kw)
     return base
 
@@ -84,7 +91,7 @@ _R = f"{QUICK_TRIALS} terrains of {QUICK_DISTANCE:g} m instead of {TRIALS} of {D
 _R_ERR = f"{QUICK_TRIALS} terrains of {QUICK_DISTANCE:g} m instead of {ERR_TRIALS} of {DISTANCE:g} m"
 _SD = f" (the s.d. rows from the apexes of {QUICK_TRIALS} short runs)"
 
-FLAT = dict(terrain="flat", distance=DISTANCE, seed=0, energy="regulation")
+FLAT = dict(terrain="flat", distance=DISTANCE, seed=0, energy="regulation", controller="paper")
 ROUGH_REG = _rough(figures=True)
 ROUGH_CONS = _rough(energy="conservation")
 SLOPE = _rough(rough_grade_percent=1.0, figures=True)
@@ -118,6 +125,20 @@ EXPERIMENTS = (
                reduction=_R_ERR + _SD, expected_s=120, quick_expected_s=10)
     for name, rel in (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
                       ("inertia", 0.5), ("friction", 0.5)))
+
+#: bipedlab's controller beside the paper's: flat ground and the two model errors whose
+#: foot-placement errors its additions change most (experiment name -> the paper-controller one)
+VARIANTS = {"flat-bipedlab": "flat", "mass+20pct-bipedlab": "mass+20pct", "stiffness+20pct-bipedlab": "stiffness+20pct"}
+
+
+def _variant(name: str, of: str) -> Experiment:
+    e = next(x for x in EXPERIMENTS if x.name == of)
+    full, quick = (dict(a, controller="bipedlab", figures=False) for a in (e.full_args, e.quick_args))
+    return Experiment(name, e.command + " --controller bipedlab", _run, full, quick, reduction=e.reduction,
+                      expected_s=e.expected_s, quick_expected_s=10)
+
+
+EXPERIMENTS = EXPERIMENTS + tuple(_variant(n, of) for n, of in VARIANTS.items())
 
 
 _STATS = ("apex_sd_m", "speed_sd_mps", "apex_error_m", "speed_error_mps", "success")
@@ -154,8 +175,35 @@ def measure(records: dict, quick: bool) -> dict:
     for e in EXPERIMENTS:
         if e.name.startswith(("mass", "stiffness", "inertia", "friction")):
             out.update(_stats(records.get(e.name), e.name, missing))
+    out.update(_variants(records, missing))
     rows = {r["id"] for r in json.loads(DATA.read_text(encoding="utf-8"))["rows"]}
     return {k: v for k, v in out.items() if k in rows}
+
+
+def _errors(rec) -> tuple:
+    """(apex-height error m, speed error m/s) of a record: the last ten apexes' of a single
+    run, the mean over the surviving trials' apexes of a batched one (as the judged rows)."""
+    if rec is None:
+        return None, None
+    if "trials" in rec:
+        return dig(rec, "apex_height_error_mean_m"), dig(rec, "speed_error_mean_mps")
+    return dig(rec, "last10", "apex_height_error_mean_m"), dig(rec, "last10", "speed_error_mean_mps")
+
+
+def _variants(records: dict, missing: Skip) -> dict:
+    """Rows ``bipedlab_<experiment>_{apex_error_m, speed_error_mps}``: bipedlab's controller's
+    errors, with the paper's controller's on the same terrains (``paper_controller``) and the
+    difference (``change``) for the texts."""
+    out = {}
+    for name, of in VARIANTS.items():
+        mine, theirs = _errors(records.get(name)), _errors(records.get(of))
+        for i, q in enumerate(("apex_error_m", "speed_error_mps")):
+            key = f"bipedlab_{of}_{q}"
+            if mine[i] is None or theirs[i] is None:
+                out[key] = missing if records.get(name) is None or records.get(of) is None else None
+            else:
+                out[key] = Measured(mine[i], dict(paper_controller=theirs[i], change=mine[i] - theirs[i]))
+    return out
 
 
 PAPERS = [Paper(
@@ -172,6 +220,10 @@ PAPERS = [Paper(
     notes=("The rough-terrain rows pool the apexes of every terrain draw that did not fall (random steps every 3 m, "
            "changes up to ±25 cm: independent levels uniform within ±12.5 cm, flat on average, the reading of the "
            "paper's text documented in bipedlab.contact.terrain); the paper's numbers are from one run each.",
+           "Every judged row runs the paper's controller as published (--controller paper). bipedlab's controller "
+           "adds an integral action on the lift-off energy error, a landing-angle trim from the apex-height error and "
+           "a lift-off debounce (2 cm of compression or 40 ms of stance); its rows, labelled \"bipedlab's controller\", "
+           "are shown beside the paper's and not judged.",
            "The delay and model-error experiments run as the paper's: the controller does not know its 10 ms delay "
            "(--delay-compensation not given), and a mass or stiffness error is one of the controller's model, in the "
            "swing-leg policy and the stance control alike, the robot keeping its true values.",),

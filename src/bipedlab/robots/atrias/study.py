@@ -58,6 +58,7 @@ class Settings:
     seed: int = 0
     theta0_offset_deg: float = 0.0  # initial trunk perturbation (flat-ground test of IV-A)
     rough_grade_percent: float = 0.0  # rough terrain with a persistent slope (IV-B), --slope with rough
+    controller: str = "paper"         # the paper's controller as published, or "bipedlab" (catalog.ADDITIONS)
 
 
 def parse_model_errors(items) -> tuple:
@@ -80,7 +81,10 @@ def parse_model_errors(items) -> tuple:
 def build(st: Settings):
     """Robot, controller parameters (with the model-error scaling) and the nominal policy
     (cached per model error and energy option)."""
-    return _build(tuple(st.model_error), st.energy)
+    if st.controller not in catalog.CONTROLLERS:
+        raise ValueError(f"controller must be one of {', '.join(catalog.CONTROLLERS)}, got {st.controller!r}")
+    rp, cp, gait, samples = _build(tuple(st.model_error), st.energy)
+    return rp, (rc.paper_controller(cp) if st.controller == "paper" else cp), gait, samples
 
 
 @functools.lru_cache(maxsize=16)
@@ -265,7 +269,7 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
     survivors = [i for i in range(n) if ok[i]]
     b = np.concatenate([_apex_arrays(out, i)[0] for i in survivors] or [np.zeros(0)])
     s = np.concatenate([_apex_arrays(out, i)[1] for i in survivors] or [np.zeros(0)])
-    rec = dict(robot="atrias", terrain=st.terrain, energy=st.energy, noise=st.noise, delay_ms=st.delay_ms,
+    rec = dict(robot="atrias", controller=st.controller, terrain=st.terrain, energy=st.energy, noise=st.noise, delay_ms=st.delay_ms,
                delay_compensation=bool(st.delay_compensation),
                model_error=dict(st.model_error), seed=st.seed)
     if st.terrain in ROUGH_MODES:
@@ -317,7 +321,8 @@ def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
 
 
 def summary(rec: dict) -> str:
-    lines = [f"ATRIAS-like biped running, terrain {rec['terrain']}, energy {rec['energy']}"]
+    lines = [f"ATRIAS-like biped running, terrain {rec['terrain']}, energy {rec['energy']}, "
+             f"{'the paper' if rec.get('controller', 'paper') == 'paper' else 'bipedlab'}'s controller"]
     if rec.get("delay_ms"):
         lines.append(f"  delay {rec['delay_ms']:g} ms, " + ("known to the controller (--delay-compensation)"
                                                            if rec["delay_compensation"] else "unknown to the controller"))
