@@ -12,7 +12,7 @@ from pathlib import Path
 import bipedlab
 from bipedlab.outputs import dumps_json
 from bipedlab.report import html, values
-from bipedlab.report.spec import Measured, Paper, Skip
+from bipedlab.report.spec import Failed, Measured, Paper, Skip
 
 
 def _device() -> dict:
@@ -69,16 +69,20 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         facts = {}
         if isinstance(v, Measured):
             v, facts = v.value, dict(v.facts)
-        reason = None
+        reason, failed = None, None
         if isinstance(v, Skip):
             reason, v = v.reason, None
+        elif isinstance(v, Failed):
+            failed, v = v.reason, None
         elif v is None:
             reason = "the study did not report it (see the experiment's record)"
         tol, sign, self_check = r["tolerance"], r.get("sign"), r.get("self_check")
-        met = values.agrees(v, tol, r["paper"], sign)
+        met = False if failed is not None and tol["kind"] != "report" else values.agrees(v, tol, r["paper"], sign)
         namespace = {**{k: x for k, x in records.items() if x is not None}, **facts, "value": v, "paper": r["paper"]}
         where = f"{label}: row {r['id']!r}"
         unit = r.get("unit", "")
+        if failed is not None and met is None:
+            reason = failed
         if reason is None and met is None:
             reason = (values.render(tol["why"], namespace, where + " tolerance.why") if tol["kind"] == "report"
                       else "not comparable under this tolerance")
@@ -87,7 +91,7 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
             why = f"{head} {values.tolerance_text(tol, unit, sign)}: {values.render(tol['why'], namespace, where + ' tolerance.why')}"
         elif met is False:
             text = r.get("departs_why") or "departs (no explanation recorded)"
-            why = values.render(text, namespace, where + " departs_why")
+            why = failed if failed is not None else values.render(text, namespace, where + " departs_why")
             if self_check:
                 why = f"self-check not met: {why}"
         else:

@@ -62,6 +62,15 @@ class Skip:
 
 
 @dataclass(frozen=True)
+class Failed:
+    """A row value the run could not measure because its experiment failed at what the paper
+    reports working (a fall, a push not recovered, no fixed point): the row departs, with the
+    reason as its text."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
 class Measured:
     """A row's simulated value with the numbers of the run its texts cite: ``{name}`` in the
     row's ``tolerance.why`` or ``departs_why`` is filled from ``facts`` (beside ``value``,

@@ -87,3 +87,31 @@ def test_self_check_rows_are_declared_consistently(self_check, derivation, words
         row["self_check"] = self_check
     with pytest.raises(values.ValuesError, match=words):
         values.check(dict(paper="p", title="t", citation="c", rows=[row]))
+
+
+def test_a_failed_experiment_departs_with_its_reason_and_a_shown_row_stays_unjudged(tmp_path):
+    """A row whose experiment failed at what the paper reports working (a fall) departs with
+    the reason, also for a claim its value would otherwise meet; a shown-only row says the
+    reason and stays unjudged; a Skip stays unjudged."""
+    from bipedlab.report import Failed
+
+    rows = [dict(id="speed", quantity="speed", paper=0.5, unit="m/s", source="Sec. VI",
+                 tolerance=dict(kind="rel", value=0.1, derivation="precision", why="one digit"),
+                 departs_why="walks at {value:.2f} m/s"),
+            dict(id="shown", quantity="bipedlab's gains: speed", paper=0.5, source="Sec. VI",
+                 tolerance=dict(kind="report", why="shown: {value}")),
+            dict(id="later", quantity="hops", paper=92, source="Sec. VIII",
+                 tolerance=dict(kind="at_least", value=92, derivation="claim", why="no fall"))]
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(dict(paper="toy", title="Toy", citation="c", rows=rows)))
+    measured = dict(speed=Failed("fell after 2 touchdowns"), shown=Failed("fell after 3 touchdowns"),
+                    later=Skip("not run in --quick"))
+    paper = Paper("toy", "Toy", str(path), (), lambda r, q: dict(measured))
+    rep = build.build([paper], {"toy": [Result("toy", "run", "toy", {}, dict(x=1))]}, quick=True,
+                      out_dir=tmp_path / "out", wall_s=0.0, cpu_s=0.0)
+    got = {r["id"]: r for r in rep["papers"]["toy"]["rows"]}
+    assert got["speed"]["verdict"] == "departs" and got["speed"]["why"] == "fell after 2 touchdowns"
+    assert got["speed"]["bipedlab"] is None and got["speed"]["agrees"] is False
+    assert got["shown"]["verdict"] == "not judged" and got["shown"]["why"] == "fell after 3 touchdowns"
+    assert got["later"]["verdict"] == "not judged"
+    assert rep["papers"]["toy"]["counts"]["departs"] == 1

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.report import Experiment, Figure, Measured, Paper, Skip, dig
+from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Skip, dig
 
 DATA = Path(__file__).parent / "data"
 HOPS, QUICK_HOPS = 100, 20
@@ -250,10 +250,10 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     if push:
         runs = {(r["controller"], r["force_n"]): r for r in push["runs"]}
         f, b = runs.get(("pdff", 78.0)), runs.get(("pdff", -71.0))
-        out["push_forward_change"] = Skip("fell after the push") if dig(f, "fell") else dig(f, "peak_speed_change")
-        out["push_forward_steps"] = Skip("fell after the push") if dig(f, "fell") else _recovered(f, quick)
-        out["push_backward_change"] = Skip("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
-        out["push_backward_steps"] = Skip("fell after the push") if dig(b, "fell") else _recovered(b, quick)
+        out["push_forward_change"] = Failed("fell after the push") if dig(f, "fell") else dig(f, "peak_speed_change")
+        out["push_forward_steps"] = Failed("fell after the push") if dig(f, "fell") else _recovered(f, quick)
+        out["push_backward_change"] = Failed("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
+        out["push_backward_steps"] = Failed("fell after the push") if dig(b, "fell") else _recovered(b, quick)
         out["push_forward_survived"] = _survived(f)
         for key, sign in (("push_force_plus_45pct_n", "plus"), ("push_force_minus_45pct_n", "minus")):
             out[key] = (dig(push, f"force_for_{sign}_45pct_n") if "searches" in push else
@@ -273,19 +273,19 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     for eta in ETAS:
         row = next((r for r in (imp or {}).get("rows", []) if abs(r["eta"] - eta) < 1e-9), None)
         out[f"table1_{_eta_key(eta)}"] = (row["steady_speed_mps"] if row is not None else skip)
-    out["table1_dv_deta"] = (Skip("fewer than two etas walked without a fall") if imp and dig(imp, "dv_deta") is None
+    out["table1_dv_deta"] = (Failed("fewer than two etas walked without a fall") if imp and dig(imp, "dv_deta") is None
                              else dig(imp, "dv_deta") if imp else skip)
     pdg = records.get("pd-gains")
     for g in ("nominal", "efficient"):
         out[f"{g}_eig_pdff_closest_gains"] = (
-            (dig(pdg, "closest_to_paper", g, "dominant_eigenvalue", "abs") or Skip("no grid point had a fixed point"))
+            (dig(pdg, "closest_to_paper", g, "dominant_eigenvalue", "abs") or Failed("no grid point had a fixed point"))
             if pdg else Skip("not run"))
     ex4 = records.get("exp4")
     for key, field in (("exp4_speed_mps", "speed_mps"), ("exp4_cmt", "cmt")):
         if not ex4:
             out[key] = skip
         elif ex4["fell"]:
-            out[key] = Skip(f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) "
+            out[key] = Failed(f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) "
                             "under the 6 / 10 N m limits: a fallen run has no speed or c_mt (see experiment exp4)")
         else:
             out[key] = dig(ex4, field)
@@ -295,7 +295,7 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         if x is None:
             out[f"{key}_cmt"] = out[f"{key}_cmt_ratio"] = skip
         elif x["fell"]:
-            out[f"{key}_cmt"] = out[f"{key}_cmt_ratio"] = Skip(
+            out[f"{key}_cmt"] = out[f"{key}_cmt_ratio"] = Failed(
                 f"the {g} gait fell on the 13-DoF plant in step {x['steps_completed'] + 1} ({x['fell_at_s']:.2f} s in): "
                 "a fallen run has no c_mt (see experiment full-plant)")
         else:
@@ -324,14 +324,15 @@ def _survived(run):
 
 
 def _recovered(run: dict, quick: bool):
-    """Steps until the speed is back within 2 % of the unpushed one, or a Skip saying that it
-    was not back within the steps simulated."""
+    """Steps until the speed is back within 2 % of the unpushed one, or, where it was not back
+    within the steps simulated, a Failed (the full run's 20 steps after the push) or a Skip
+    (``--quick``'s few steps may end before a recovery the full run would see)."""
     back = dig(run, "steps_to_recover")
     if back is not None:
         return back
     after = len(dig(run, "speed_per_step", default=[])) - int(dig(run, "step", default=0))
-    return Skip(f"not back within 2 % of the unpushed speed in the {after} steps simulated after the push"
-                + (" (--quick)" if quick else ""))
+    return (Skip if quick else Failed)(f"not back within 2 % of the unpushed speed in the {after} steps simulated "
+                                       "after the push" + (" (--quick)" if quick else ""))
 
 
 def _output_name(rec, short: str):
