@@ -69,7 +69,8 @@ def _fail(line: str, code: int) -> int:
 def main(argv=None) -> int:
     """Parse argv (default sys.argv[1:]), run the chosen command and print its record.
 
-    Exit status: 0 done; 2 bad input (one ``bipedlab: error:`` line, nothing run); 1 the
+    Exit status: 0 done (or the command's own status of a completed run, e.g. 1 for
+    ``reproduce --check`` finding differences); 2 bad input (one ``bipedlab: error:`` line, nothing run); 1 the
     outputs could not be written (one line; nothing left half-written); 130 / 143 interrupted
     by SIGINT / SIGTERM (one line; no partial output)."""
     try:
@@ -113,7 +114,7 @@ def _main(argv) -> int:
             staging.discard()
             return _fail(f"{cmd.name}: could not move the outputs into place: {e}", 1)
     _emit(staging.rename_paths(record), args.json, summary)
-    return 0
+    return int(cmd.exit_status(record)) if cmd.exit_status is not None else 0
 
 
 if __name__ == "__main__":

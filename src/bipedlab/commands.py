@@ -46,6 +46,8 @@ class Command:
     validate(args): optional check of the parsed options run before anything else (before
         the outputs are staged, before before_jax and run); raises UsageError on a combination
         that cannot mean anything. It should not import the study modules.
+    exit_status(record): optional exit status of a run that completed (e.g. 1 for a check
+        that found differences); 0 without it.
     bench: short versions of the command for ``bipedlab bench --studies`` (the first-run
         benchmark, :mod:`bipedlab.studybench`): a tuple of argument tuples appended to the
         command's words, e.g. ``(("--steps", "3"),)``; an argument tuple starting with "long"
@@ -61,6 +63,7 @@ class Command:
     before_jax: Optional[Callable[[argparse.Namespace], None]] = None
     validate: Optional[Callable[[argparse.Namespace], None]] = None
     bench: tuple = ()
+    exit_status: Optional[Callable[[dict], int]] = None
 
     @property
     def name(self) -> str:

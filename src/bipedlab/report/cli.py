@@ -39,6 +39,12 @@ def _arguments(p) -> None:
                         "in this process)")
     p.add_argument("--only", type=text, action="append", default=None, metavar="PAPER/EXPERIMENT",
                    help=argparse.SUPPRESS)
+    p.add_argument("--check", action="store_true",
+                   help="run the quick reproduction (implies --quick) and say whether a published report's quick "
+                        "rows still match it, row by row (exit status 1 if any differs)")
+    p.add_argument("--published", type=text, default=None, metavar="DIR",
+                   help="--check: the published report's folder, holding quick.json (default: the source checkout's "
+                        "docs/report)")
     add_out(p, "index.html, report.json and the figures (default ./bipedlab-report)")
     p.set_defaults(out=DEFAULT_OUT)
 
@@ -50,6 +56,18 @@ def _known():
 
 
 def _validate(args) -> None:
+    if args.published is not None and not args.check:
+        raise UsageError("--published applies with --check")
+    if args.check:
+        if args.list:
+            raise UsageError("--check runs the quick reproduction; --list runs nothing")
+        from bipedlab.report import check
+
+        args.quick = True
+        try:
+            args._published = check.load(args.published or check.default_folder())
+        except check.CheckError as e:
+            raise UsageError(f"--check: {e}") from None
     if args.list:
         args.out = None  # a listing writes nothing
     known = _known()
@@ -106,6 +124,10 @@ def _run(args, progress):
     resume.finish(args.out, run)
     report["index_html"] = f"{args.out}/index.html"
     report["report_json"] = f"{args.out}/report.json"
+    if args.check:
+        from bipedlab.report import check
+
+        report["check"] = check.compare(args._published, report, [p.key for p in papers])
     return report, summary
 
 
@@ -119,10 +141,19 @@ def summary(report: dict) -> str:
                      f"{sum(e['wall_s'] for e in run):.0f} s of study time)")
     lines.append(f"report: {report['index_html']} (and report.json); {report['wall_s']:.0f} s wall, "
                  f"{report['cpu_s']:.0f} s CPU{', --quick' if report['quick'] else ''}")
+    if "check" in report:
+        from bipedlab.report import check
+
+        lines.append(check.summary(report["check"]))
     return "\n".join(lines)
+
+
+def exit_status(report: dict) -> int:
+    """1 where ``--check`` found a row that differs from the published report, else 0."""
+    return int("check" in report and not report["check"]["matches"])
 
 
 COMMANDS = [
     Command("reproduce", None, "reproduce the four papers in one run: tables beside the papers' numbers, figures, "
-            "animations, one HTML report", _arguments, _run, validate=_validate),
+            "animations, one HTML report", _arguments, _run, validate=_validate, exit_status=exit_status),
 ]

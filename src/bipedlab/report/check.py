@@ -1,0 +1,122 @@
+"""Whether a published report still matches the code: ``bipedlab reproduce --check``.
+
+A published report is a folder (the repository's ``docs/report``) holding a full run's report
+(``index.html``, ``report.json``, the figures) and, beside it, the ``report.json`` of a quick
+run of the same commit as ``quick.json``. ``--check`` runs the quick reproduction with the
+code at hand (stored results are reused as by any run) and compares its rows with
+``quick.json``, row by row: a row matches when its verdict is the same and its value is the
+same (numbers to a relative :data:`RTOL`, :data:`ATOL` absolute; texts, flags and missing
+values exactly). The full run's rows are not recomputed (it takes about twenty minutes); the
+quick rows are the part of the published report a check can afford.
+
+The comparison is pure data (:func:`compare`); the command prints one line per row that
+differs, is missing or is new, and exits with status 1 when any does.
+"""
+from __future__ import annotations
+
+import json
+import math
+from pathlib import Path
+from typing import Optional
+
+QUICK_FILE = "quick.json"
+"""The quick run's report.json inside a published report's folder."""
+RTOL = 1e-6
+"""Relative tolerance on a number: float64 runs of the same code on other CPUs (other vector
+units, other XLA builds) round differently, and closed loops amplify the last bits; a change
+of the code moves a value by far more."""
+ATOL = 1e-12
+
+
+class CheckError(ValueError):
+    """A published report that cannot be read (one line)."""
+
+
+def default_folder() -> Path:
+    """``docs/report`` of the source checkout the package runs from, if it has one, else
+    ``./docs/report``."""
+    import bipedlab
+
+    here = Path(bipedlab.__file__).resolve().parent
+    for root in (here.parent.parent, Path.cwd()):
+        if (root / "docs" / "report" / QUICK_FILE).is_file():
+            return root / "docs" / "report"
+    return Path("docs") / "report"
+
+
+def load(folder) -> dict:
+    """The published quick report of ``folder`` (its ``quick.json``); CheckError otherwise."""
+    path = Path(folder) / QUICK_FILE
+    if not path.is_file():
+        raise CheckError(f"no published quick report at {path} (give the folder of a published report)")
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        raise CheckError(f"{path} is not a report's JSON: {e}") from None
+    if not isinstance(data, dict) or not isinstance(data.get("papers"), dict) or not data.get("quick"):
+        raise CheckError(f"{path} is not the report.json of a quick reproduction")
+    return data
+
+
+def same(a, b) -> bool:
+    """Two row values agree: numbers to RTOL / ATOL (NaN with NaN), lists element by element,
+    everything else exactly."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return isinstance(a, bool) and isinstance(b, bool) and a == b
+    if isinstance(a, (int, float)) and isinstance(b, (int, float)):
+        if math.isnan(a) or math.isnan(b):
+            return math.isnan(a) and math.isnan(b)
+        return abs(a - b) <= ATOL + RTOL * max(abs(a), abs(b))
+    if isinstance(a, list) and isinstance(b, list):
+        return len(a) == len(b) and all(same(x, y) for x, y in zip(a, b))
+    return a == b
+
+
+def _rows(report: dict, papers: Optional[list]) -> dict:
+    return {(k, r["id"]): r for k, p in report["papers"].items() if papers is None or k in papers
+            for r in p["rows"]}
+
+
+def compare(published: dict, report: dict, papers: Optional[list] = None) -> dict:
+    """Row-by-row comparison of a published quick report with this run's (``papers``: the
+    paper keys to compare, default those of this run). Returns {published: {commit,
+    created, version}, rows, matched, differs: [...], missing: [...], new: [...], matches}."""
+    papers = list(report["papers"]) if papers is None else papers
+    old, new = _rows(published, papers), _rows(report, papers)
+    differs, missing, added = [], [], []
+    for key, r in new.items():
+        o = old.get(key)
+        if o is None:
+            added.append(dict(paper=key[0], id=key[1], now=r["bipedlab"], verdict=r["verdict"]))
+        elif o["verdict"] != r["verdict"] or not same(o["bipedlab"], r["bipedlab"]):
+            differs.append(dict(paper=key[0], id=key[1], published=o["bipedlab"], now=r["bipedlab"],
+                                published_verdict=o["verdict"], verdict=r["verdict"]))
+    for key, o in old.items():
+        if key not in new:
+            missing.append(dict(paper=key[0], id=key[1], published=o["bipedlab"], published_verdict=o["verdict"]))
+    matched = sum(1 for k in new if k in old) - len(differs)
+    return dict(published={k: published.get(k) for k in ("commit", "created", "version", "jax")},
+                papers=papers, rows=len(new), matched=matched, differs=differs, missing=missing, new=added,
+                rtol=RTOL, atol=ATOL, matches=not (differs or missing or added))
+
+
+def _v(x) -> str:
+    return f"{x:.6g}" if isinstance(x, float) else str(x)
+
+
+def summary(check: dict) -> str:
+    """The comparison in words: a headline, then one line per row that differs, is missing or
+    is new."""
+    pub = check["published"]
+    head = (f"published report (commit {str(pub.get('commit') or 'unknown')[:12]}, {pub.get('created') or 'undated'}): "
+            f"{check['matched']} of {check['rows']} quick rows match")
+    lines = [head + (" - the published values still hold" if check["matches"] else " - differences below")]
+    for d in check["differs"]:
+        lines.append(f"  differs  {d['paper']}/{d['id']}: published {_v(d['published'])} ({d['published_verdict']}), "
+                     f"now {_v(d['now'])} ({d['verdict']})")
+    for d in check["missing"]:
+        lines.append(f"  missing  {d['paper']}/{d['id']}: published {_v(d['published'])} ({d['published_verdict']}), "
+                     "not in this run")
+    for d in check["new"]:
+        lines.append(f"  new      {d['paper']}/{d['id']}: {_v(d['now'])} ({d['verdict']}), not in the published report")
+    return "\n".join(lines)

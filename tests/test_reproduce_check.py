@@ -1,0 +1,79 @@
+"""``bipedlab reproduce --check``: a published quick report against the code at hand, row by
+row (the seven-link free swing, a few seconds), and the comparison's rules on their own."""
+from __future__ import annotations
+
+import copy
+import json
+
+import pytest
+
+from bipedlab.cli import main
+from bipedlab.report import check
+
+ONLY = ["--only", "seven-link/free-swing"]
+
+
+def _report(rows, quick=True, commit="abc"):
+    return dict(quick=quick, commit=commit, created="2026-12-04",
+                papers={"toy": dict(rows=[dict(id=i, bipedlab=v, verdict=w) for i, v, w in rows])})
+
+
+def test_rows_match_to_the_tolerance_and_every_difference_is_named():
+    pub = _report([("a", 1.0, "agrees"), ("b", 0.5, "departs"), ("c", None, "not judged"), ("d", 3, "agrees")])
+    now = copy.deepcopy(pub)
+    assert check.compare(pub, now)["matches"]
+    now["papers"]["toy"]["rows"][0]["bipedlab"] = 1.0 * (1 + 0.5 * check.RTOL)   # rounding: still the same
+    assert check.compare(pub, now)["matches"]
+    now["papers"]["toy"]["rows"][0]["bipedlab"] = 1.0 * (1 + 3 * check.RTOL)     # a change of the code
+    now["papers"]["toy"]["rows"][1]["verdict"] = "agrees"                         # same value, other verdict
+    now["papers"]["toy"]["rows"].pop(2)                                           # a row gone
+    now["papers"]["toy"]["rows"].append(dict(id="e", bipedlab=2.0, verdict="agrees"))  # a row added
+    c = check.compare(pub, now)
+    assert not c["matches"] and c["rows"] == 4 and c["matched"] == 1
+    assert [d["id"] for d in c["differs"]] == ["a", "b"]
+    assert [d["id"] for d in c["missing"]] == ["c"] and [d["id"] for d in c["new"]] == ["e"]
+    text = check.summary(c)
+    assert "1 of 4 quick rows match" in text and "differs  toy/a" in text and "missing  toy/c" in text
+    assert check.same(float("nan"), float("nan")) and not check.same(True, 1) and not check.same(None, 0.0)
+
+
+def test_a_published_report_is_checked_and_a_changed_value_exits_1(tmp_path, capsys):
+    pub = tmp_path / "published"
+    pub.mkdir()
+    assert main(["reproduce", "seven-link", "--quick", "--json", "--out", str(tmp_path / "a"), *ONLY]) == 0
+    capsys.readouterr()
+    (pub / check.QUICK_FILE).write_text((tmp_path / "a" / "report.json").read_text())
+    argv = ["reproduce", "seven-link", "--check", "--published", str(pub), "--json", "--out", str(tmp_path / "b"), *ONLY]
+    assert main(argv) == 0
+    rec = json.loads(capsys.readouterr().out)
+    assert rec["quick"] and rec["check"]["matches"] and rec["check"]["rows"] == rec["check"]["matched"] > 0
+    data = json.loads((pub / check.QUICK_FILE).read_text())
+    row = next(r for r in data["papers"]["seven-link"]["rows"] if r["id"] == "free_swing_hip_half_cycles")
+    row["bipedlab"] += 1
+    (pub / check.QUICK_FILE).write_text(json.dumps(data))
+    assert main(argv[:-2 - len(ONLY)] + ["--out", str(tmp_path / "c"), *ONLY]) == 1
+    rec = json.loads(capsys.readouterr().out)
+    assert [d["id"] for d in rec["check"]["differs"]] == ["free_swing_hip_half_cycles"]
+
+
+@pytest.mark.parametrize("content, words", [
+    (None, "no published quick report"),
+    ("{not json", "is not a report's JSON"),
+    (json.dumps(dict(quick=False, papers={})), "not the report.json of a quick reproduction"),
+])
+def test_an_unreadable_published_report_is_one_line_and_status_2(tmp_path, capsys, content, words):
+    if content is not None:
+        (tmp_path / check.QUICK_FILE).write_text(content)
+    with pytest.raises(SystemExit) as e:
+        main(["reproduce", "--check", "--published", str(tmp_path), "--out", str(tmp_path / "o")])
+    assert e.value.code == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert words in err[-1] and "--check" in err[-1]
+    assert not (tmp_path / "o").exists()
+
+
+def test_published_needs_check(capsys, tmp_path):
+    with pytest.raises(SystemExit) as e:
+        main(["reproduce", "--published", str(tmp_path)])
+    assert e.value.code == 2
+    assert "--published applies with --check" in capsys.readouterr().err
