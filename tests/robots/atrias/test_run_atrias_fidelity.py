@@ -183,3 +183,19 @@ def test_inertia_and_friction_errors_have_little_effect():
         assert rec["apex_height_sd_m"] <= 0.08
         assert abs(rec["apex_height_error_mean_m"] - base["apex_height_error_mean_m"]) < 0.02
         assert abs(rec["speed_error_mean_mps"] - base["speed_error_mean_mps"]) < 0.05
+
+
+def test_settle_steps_counts_the_touchdowns_until_the_pitch_error_stays_in_the_band():
+    """A 10 deg pitch error decaying with a 0.5 s time constant falls below 2 deg for good at
+    0.5 ln 5 = 0.80 s; with a touchdown every 0.4 s (0.2, 0.6, 1.0, ...) two touchdowns came
+    before it. A log that ends outside the band cannot tell."""
+    from bipedlab.robots.atrias import controller as rc
+
+    t = np.arange(0.0, 3.0, 1e-3)
+    star = np.deg2rad(10.0)
+    theta = star + np.deg2rad(10.0) * np.exp(-t / 0.5)
+    mode = np.where((t % 0.4) >= 0.2, rc.STANCE, rc.FLIGHT)
+    assert ra.settle_steps(t, theta, mode, star) == 2
+    assert ra.settle_steps(t, theta, mode, star, band_deg=0.5) == 4      # 0.5 ln 20 = 1.50 s
+    assert ra.settle_steps(t, np.full_like(t, star), mode, star) == 0
+    assert ra.settle_steps(t[:700], theta[:700], mode[:700], star) is None

@@ -53,6 +53,9 @@ def _run_arguments(p) -> None:
                         f"NAME one of {', '.join(MODEL_ERRORS)}, REL in {MODEL_ERROR.text}, each NAME once")
     p.add_argument("--energy", choices=catalog.ENERGY, default="regulation",
                    help="stance energy management (default regulation)")
+    p.add_argument("--trunk-offset", type=float_in(-45.0, 45.0), default=0.0, metavar="DEG",
+                   help="pitch the trunk DEG away from its 10 deg reference at the start (Sec. IV-A's 10 deg "
+                        "perturbation); a single run reports the steps until it settles (trunk_settle_steps)")
     p.add_argument("--controller", choices=catalog.CONTROLLERS, default="paper",
                    help="the paper's controller as published (default), or bipedlab's with three additions: "
                         + "; ".join(f"{k} ({v})" for k, v in catalog.ADDITIONS.items()))
@@ -86,7 +89,8 @@ def _run(args, progress):
         rough_grade_percent=float(args.slope) if (args.slope is not None and args.terrain.startswith("rough")) else 0.0,
         distance=60.0 if args.distance is None else float(args.distance), noise=bool(args.noise),
         delay_ms=float(args.delay_ms), delay_compensation=bool(args.delay_compensation), model_error=errs,
-        energy=args.energy, trials=args.trials, seed=int(args.seed), controller=args.controller)
+        energy=args.energy, trials=args.trials, seed=int(args.seed), controller=args.controller,
+        theta0_offset_deg=float(args.trunk_offset))
     return run_atrias.study(st, out_dir=args.out, progress=run_atrias.progress_bar), run_atrias.summary
 
 

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.report import Experiment, Figure, Measured, Paper, Skip, dig
+from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Skip, dig
 
 DATA = Path(__file__).parent / "data" / "paper_running.json"
 TRIALS, QUICK_TRIALS = 32, 4
@@ -29,7 +29,7 @@ def _settings(args):
     from bipedlab.robots.atrias import study
 
     keys = ("terrain", "step_height", "distance", "noise", "delay_ms", "energy", "trials", "seed", "rough_grade_percent",
-            "controller")
+            "controller", "theta0_offset_deg")
     # "figures": write the apex figure of a batched run too
     kw = {k: args[k] for k in keys if k in args}
     kw["model_error"] = tuple((k, float(v)) for k, v in sorted(args.get("model_error", {}).items()))
@@ -92,9 +92,11 @@ _R_ERR = f"{QUICK_TRIALS} terrains of {QUICK_DISTANCE:g} m instead of {ERR_TRIAL
 _SD = f" (the s.d. rows from the apexes of {QUICK_TRIALS} short runs)"
 
 FLAT = dict(terrain="flat", distance=DISTANCE, seed=0, energy="regulation", controller="paper")
+TRUNK = dict(FLAT, distance=20.0, theta0_offset_deg=10.0, figures=False)
 ROUGH_REG = _rough(figures=True)
 ROUGH_CONS = _rough(energy="conservation")
 SLOPE = _rough(rough_grade_percent=1.0, figures=True)
+SLOPE_CONS = _rough(rough_grade_percent=1.0, energy="conservation")
 NOISE = _rough(energy="conservation", noise=True)
 DELAY = _rough(energy="conservation", delay_ms=10.0)
 
@@ -108,12 +110,17 @@ def _err(name, rel):
 EXPERIMENTS = (
     Experiment("flat", "bipedlab run atrias --distance 60", _run, FLAT, dict(FLAT, distance=20.0),
                reduction="20 m instead of 60 m", expected_s=70, quick_expected_s=70),
+    Experiment("trunk-10deg", "bipedlab run atrias --distance 20 --trunk-offset 10", _run, TRUNK, TRUNK, reduction="as in the full run",
+               expected_s=20, quick_expected_s=15),
     Experiment("rough", f"bipedlab run atrias --terrain rough --trials {TRIALS}", _run, ROUGH_REG, _quick(ROUGH_REG),
                reduction=_R + _SD, expected_s=150, quick_expected_s=60),
     Experiment("rough-conservation", f"bipedlab run atrias --terrain rough --energy conservation --trials {TRIALS}", _run,
                ROUGH_CONS, _quick(ROUGH_CONS), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
     Experiment("slope", f"bipedlab run atrias --terrain rough --slope 1 --trials {TRIALS}", _run, SLOPE,
                _quick(SLOPE), reduction=_R + _SD, expected_s=150, quick_expected_s=15),
+    Experiment("slope-conservation",
+               f"bipedlab run atrias --terrain rough --slope 1 --energy conservation --trials {TRIALS}", _run,
+               SLOPE_CONS, _quick(SLOPE_CONS), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
     Experiment("noise", f"bipedlab run atrias --terrain rough --energy conservation --noise --trials {TRIALS}", _run,
                NOISE, _quick(NOISE), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
     Experiment("delay", f"bipedlab run atrias --terrain rough --energy conservation --delay-ms 10 --trials {TRIALS}",
@@ -124,7 +131,7 @@ EXPERIMENTS = (
                f"--trials {ERR_TRIALS}", _run, _err(name, rel), _quick(_err(name, rel)),
                reduction=_R_ERR + _SD, expected_s=120, quick_expected_s=10)
     for name, rel in (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
-                      ("inertia", 0.5), ("friction", 0.5)))
+                      ("inertia", 0.5), ("inertia", -0.5), ("friction", 0.5), ("friction", -0.5)))
 
 #: bipedlab's controller beside the paper's: flat ground and the two model errors whose
 #: foot-placement errors its additions change most (experiment name -> the paper-controller one)
@@ -156,8 +163,8 @@ def _stats(rec, prefix: str, missing: Skip) -> dict:
 
 def measure(records: dict, quick: bool) -> dict:
     missing = Skip("not run in --quick" if quick else "not run")
-    out = {k: missing for k in ("flat_apex_error_m", "flat_speed_error_mps", "flat_success", "flat_slip_apex_error_m",
-                                "rough_slip_apex_sd_m", "rough_slip_speed_sd_mps")}
+    out = {k: missing for k in ("trunk_settle_steps", "flat_apex_error_m", "flat_speed_error_mps", "flat_success", "flat_slip_apex_error_m",
+                                "flat_slip_speed_error_mps", "rough_slip_apex_sd_m", "rough_slip_speed_sd_mps")}
     flat = records.get("flat")
     if flat is not None:
         h, v = dig(flat, "last10", "apex_height_error_mean_m"), dig(flat, "last10", "speed_error_mean_mps")
@@ -165,9 +172,19 @@ def measure(records: dict, quick: bool) -> dict:
         out["flat_speed_error_mps"] = None if v is None else abs(v)
         out["flat_success"] = float(not flat["fell"])
         out["flat_slip_apex_error_m"] = dig(flat, "slip_model", "apex_height_error_mean_m")
-    for name, prefix in (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"), ("noise", "noise"),
-                         ("delay", "delay")):
+        out["flat_slip_speed_error_mps"] = dig(flat, "slip_model", "speed_error_mean_mps")
+    trunk = records.get("trunk-10deg")
+    if trunk is not None:
+        out["trunk_settle_steps"] = (Failed("the 10 deg trunk perturbation had not settled within "
+                                            f"{trunk['trunk_settle_band_deg']:g} deg by the run's last second")
+                                     if trunk.get("fell") is False and trunk.get("trunk_settle_steps") is None
+                                     else Failed("the run with the trunk perturbation fell") if trunk.get("fell")
+                                     else trunk["trunk_settle_steps"])
+    for name, prefix in (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"),
+                         ("slope-conservation", "slope_cons"), ("noise", "noise"), ("delay", "delay")):
         out.update(_stats(records.get(name), prefix, missing))
+    out.update(_slope_losses(records, missing))
+    out.update(_sd_ratios(records, missing))
     rough = records.get("rough")
     if rough is not None:
         out["rough_slip_apex_sd_m"] = dig(rough, "slip_model", "apex_height_sd_m")
@@ -178,6 +195,44 @@ def measure(records: dict, quick: bool) -> dict:
     out.update(_variants(records, missing))
     rows = {r["id"] for r in json.loads(DATA.read_text(encoding="utf-8"))["rows"]}
     return {k: v for k, v in out.items() if k in rows}
+
+
+def _difference(a, b, missing: Skip, **facts):
+    """a - b as a Measured with both beside it (``this``, ``reference``), or why not."""
+    if a is None or b is None:
+        return missing if isinstance(a, Skip) or isinstance(b, Skip) else None
+    return Measured(a - b, dict(this=a, reference=b, **facts))
+
+
+def _slope_losses(records: dict, missing: Skip) -> dict:
+    """The 1 % slope's loss of apex speed (Sec. IV-B: the pure spring-mass model and the energy
+    conservation control "eventually fail by losing forward velocity"): the mean apex-speed
+    error on the sloped rough terrain minus that on the flat-on-average one, for the same
+    model and controller (so the loss is the slope's, not a steady error either has without it)."""
+    slope, rough = records.get("slope"), records.get("rough")
+    cons_s, cons = records.get("slope-conservation"), records.get("rough-conservation")
+    slip = (_difference(dig(slope, "slip_model", "speed_error_mean_mps"), dig(rough, "slip_model", "speed_error_mean_mps"),
+                        missing, success=dig(slope, "slip_model", "success_rate"))
+            if slope is not None and rough is not None else missing)
+    robot = (_difference(dig(cons_s, "speed_error_mean_mps"), dig(cons, "speed_error_mean_mps"), missing,
+                         success=dig(cons_s, "success_rate"))
+             if cons_s is not None and cons is not None else missing)
+    return {"slope_slip_speed_loss_mps": slip, "slope_cons_speed_loss_mps": robot}
+
+
+def _sd_ratios(records: dict, missing: Skip) -> dict:
+    """Bounce-height s.d. under a ±50 % inertia or friction error over the error-free run's on
+    the same kind of terrain (experiment rough-conservation): "very little effect" (Sec. IV-C)."""
+    free = dig(records.get("rough-conservation"), "apex_height_sd_m") if records.get("rough-conservation") else None
+    out = {}
+    for e in EXPERIMENTS:
+        if e.name.startswith(("inertia", "friction")):
+            rec = records.get(e.name)
+            sd = dig(rec, "apex_height_sd_m") if rec is not None else None
+            out[f"{e.name}_apex_sd_ratio"] = (missing if rec is None or records.get("rough-conservation") is None
+                                              else None if sd is None or not free
+                                              else Measured(sd / free, dict(this=sd, reference=free)))
+    return out
 
 
 def _errors(rec) -> tuple:

@@ -257,10 +257,33 @@ def slip_model(st: Settings, terr, n: int, gait):
     return rec, r
 
 
+SETTLE_BAND_DEG = 2.0  # a trunk perturbation has settled once the pitch error stays within this band
+
+
+def settle_steps(t, theta, mode, theta_star: float, band_deg: float = SETTLE_BAND_DEG):
+    """Steps a trunk perturbation takes to settle (running paper, Sec. IV-A: 10 deg "in about
+    two steps"): the touchdowns up to the last sample at which the pitch error |theta -
+    theta*| exceeds ``band_deg`` (the error stays within it afterwards), from one run's log (time,
+    trunk pitch in rad, controller mode). None if the error is still outside the band in the
+    last second of the log (the run too short to tell)."""
+    err = np.abs(np.rad2deg(np.asarray(theta) - theta_star))
+    out = np.nonzero(err > band_deg)[0]
+    if out.size == 0:
+        return 0
+    last = int(out[-1])
+    if t[last] > t[-1] - 1.0:
+        return None
+    mode = np.asarray(mode)
+    touchdowns = np.nonzero((mode[1:] != rc.FLIGHT) & (mode[:-1] == rc.FLIGHT))[0] + 1
+    return int(np.sum(touchdowns <= last))
+
+
 def study(st: Settings, out_dir=None, progress=None) -> dict:
     n = st.trials or 1
     t0 = time.time()
-    out, (rp, cp, gait, terr) = simulate(st, n, log=bool(out_dir) and st.trials is None, progress=progress)
+    perturbed = st.trials is None and bool(st.theta0_offset_deg)
+    out, (rp, cp, gait, terr) = simulate(st, n, log=(bool(out_dir) or perturbed) and st.trials is None,
+                                         progress=progress)
     wall = time.time() - t0
     target = st.distance if not st.seconds else -np.inf
     fell = out["status"] != ar.OK
@@ -293,6 +316,11 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
                              speed_error_mean_mps=steady["speed_error_steady_mps"])
     if single:
         rec["status"] = ar.STATUS_NAMES[int(out["status"][0])]
+    if perturbed:
+        lg = out["log"]
+        rec["theta0_offset_deg"] = st.theta0_offset_deg
+        rec["trunk_settle_steps"] = settle_steps(lg["t"][0], lg["q"][0][:, 2], lg["mode"][0], float(cp.theta_star))
+        rec["trunk_settle_band_deg"] = SETTLE_BAND_DEG
     else:
         rec.update(success_rate=float(np.mean(ok)), trials=n)
     srec, sr = slip_model(st, terr, n, gait)
@@ -330,6 +358,11 @@ def summary(rec: dict) -> str:
         lines.append(f"  trials {rec['trials']}: success {100 * rec['success_rate']:.1f} %, wall {rec['wall_s']:.1f} s")
     else:
         lines.append(f"  fell: {rec['fell']}  distance {rec['distance_m']:.1f} m")
+    if "trunk_settle_steps" in rec:
+        n = rec["trunk_settle_steps"]
+        lines.append(f"  trunk pitched {rec['theta0_offset_deg']:+g} deg at the start: "
+                     + (f"within {rec['trunk_settle_band_deg']:g} deg for good after {n} touchdowns" if n is not None
+                        else f"not yet within {rec['trunk_settle_band_deg']:g} deg in the last second"))
     lines.append(f"  apex height error {100 * rec['apex_height_error_mean_m']:+.1f} cm (s.d. {100 * rec['apex_height_sd_m']:.1f} cm),"
                  f" speed error {100 * rec['speed_error_mean_mps']:+.1f} cm/s (s.d. {100 * rec['speed_sd_mps']:.1f} cm/s)")
     if "apex_height_error_steady_m" in rec:
