@@ -22,3 +22,9 @@ ADDITIONS = {
     "landing-angle trim": "each lift-off trims the landing angle by 0.25 rad/m of apex-height error (at most 0.03 rad)",
     "lift-off debounce": "lift-off counts only after 2 cm of leg compression or 40 ms of stance",
 }
+#: the paper's standard deviations of the bounce height (m) and apex speed (m/s) on the rough
+#: terrain with steps up to 25 cm (Sec. IV-B, IV-C; one run each), by case: the robot under
+#: energy regulation (flat on average, and on the 1 % slope), under energy conservation (without
+#: and with sensor noise), and the pure spring-mass model
+PAPER_ROUGH_SD = {"regulation": (0.104, 0.255), "regulation-slope": (0.102, 0.264), "conservation": (0.053, 0.202),
+                  "conservation-noise": (0.101, 0.261), "spring-mass": (0.018, 0.186)}

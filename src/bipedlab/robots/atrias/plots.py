@@ -11,17 +11,26 @@ import numpy as np
 from bipedlab.viz import figures
 
 
-def write_all(out_dir, out, sr, cp, gait) -> list:
-    """Write the figures available from a study output; returns the file paths."""
-    files = [apex_figure(os.path.join(out_dir, "apex.png"), out, sr, gait)]
+def write_all(out_dir, out, sr, cp, gait, paper_sd=None) -> list:
+    """Write the figures available from a study output; returns the file paths. paper_sd: the
+    paper's s.d. to mark on the apex figure (see :func:`apex_figure`)."""
+    files = [apex_figure(os.path.join(out_dir, "apex.png"), out, sr, gait, paper_sd)]
     if "log" in out:
         files.append(time_figure(os.path.join(out_dir, "gait_time_series.png"), out["log"], cp))
         files.append(grf_figure(os.path.join(out_dir, "grf_first_stance.png"), out["log"]))
     return files
 
 
-def apex_figure(path, out, sr, gait):
-    """Fig. 8: bounce heights and apex speeds of the robot and of the spring-mass model."""
+def _paper_band(ax, target, sd, label):
+    if sd is not None:
+        ax.axhspan(target - sd, target + sd, color="0.5", alpha=0.18, lw=0, label=label)
+
+
+def apex_figure(path, out, sr, gait, paper_sd=None):
+    """Fig. 8: bounce heights and apex speeds of the robot and of the spring-mass model, with
+    the target (dashed) and, where the paper gives them (``paper_sd``: ((robot height s.d.,
+    speed s.d.), (model height s.d., speed s.d.) or None), Sec. IV-B), the band target +- the
+    paper's s.d. (grey) beside this run's s.d. in the titles."""
     fig, ax = figures.subplots(2, 2, figsize=(10, 6), sharex="col")
     k = int(min(out["n_apex"][0], len(out["bounce"][0])))
     x = out["apex_x"][0, :k]
@@ -30,14 +39,25 @@ def apex_figure(path, out, sr, gait):
     ax[0, 0].axhline(gait.y_apex, ls="--", color="g")
     ax[1, 0].plot(x, out["speed"][0, :k], "o", color="tab:cyan", ms=4)
     ax[1, 0].axhline(gait.speed, ls="--", color="g")
-    ax[0, 0].set_title("robot model (trial 0)")
+    robot_sd, smm_sd = paper_sd if paper_sd is not None else (None, None)
+    for col, sd, who in ((0, robot_sd, "robot"), (1, smm_sd, "model")):
+        for row in (0, 1):
+            _paper_band(ax[row, col], (gait.y_apex, gait.speed)[row], None if sd is None else sd[row],
+                        f"paper: target \u00b1 its s.d. (Sec. IV-B)")
+    b0 = out["bounce"][0, :k]
+    ax[0, 0].set_title(f"robot model (trial 0): s.d. {100 * np.std(b0):.1f} cm, "
+                       f"{100 * np.std(out['speed'][0, :k]):.1f} cm/s"
+                       + (f" (paper {100 * robot_sd[0]:.1f} cm, {100 * robot_sd[1]:.1f} cm/s)" if robot_sd else ""),
+                       fontsize=9)
     n = int(sr.steps_done[0])
     ax[0, 1].plot(sr.x[0, :n], sr.apex_y[0, :n], "k-", lw=1)
     ax[0, 1].plot(sr.x[0, :n], sr.bounce[0, :n], "o", color="tab:blue", ms=4)
     ax[0, 1].axhline(gait.y_apex, ls="--", color="g")
     ax[1, 1].plot(sr.x[0, :n], sr.speed[0, :n], "o", color="tab:blue", ms=4)
     ax[1, 1].axhline(gait.speed, ls="--", color="g")
-    ax[0, 1].set_title("spring-mass model, same terrain")
+    ax[0, 1].set_title("spring-mass model, same terrain"
+                       + (f" (paper s.d. {100 * smm_sd[0]:.1f} cm, {100 * smm_sd[1]:.1f} cm/s)" if smm_sd else ""),
+                       fontsize=9)
     ax[0, 0].set_ylabel("apex height (m)")
     ax[1, 0].set_ylabel("apex speed (m/s)")
     ax[1, 0].set_xlabel("x (m)")

@@ -265,12 +265,15 @@ PAPERS = [Paper(
     key="running", title="Spring-mass running embedded in an articulated biped (ATRIAS-like)", values=str(DATA),
     experiments=EXPERIMENTS, measure=measure, order=30,
     figures=(Figure("flat", "gait_time_series.png",
-                    "Flat ground: apex heights, speeds, landing angle, trunk pitch, angular momentum (cf. paper Fig. 7)"),
-             Figure("flat", "grf_first_stance.png", "Ground reaction forces of a stance (cf. paper Fig. 5)"),
-             Figure("rough", "apex.png", "Rough terrain (±25 cm steps), energy regulation: bounce heights and apex "
-                    "speeds of the robot and of the pure spring-mass model (cf. paper Fig. 8, top row)"),
-             Figure("slope", "apex.png", "Rough terrain on a 1 % slope, energy regulation (cf. paper Fig. 8, bottom row)"),),
-    animations=(Figure("flat", "running.html", "The ATRIAS-like biped running on flat ground (first 3 s of the log)",
+                    "Flat ground, the paper's controller (energy regulation), first 2 s of the 60 m run (20 m with --quick): "
+                    "trunk height, speed, pitch, landing angle, angular momentum, hip torques (cf. paper Fig. 7)"),
+             Figure("flat", "grf_first_stance.png", "Ground reaction forces of the first stance on flat ground, the paper's controller (cf. paper Fig. 5)"),
+             Figure("rough", "apex.png", "Rough terrain (steps up to 25 cm), the paper's controller with energy regulation, "
+                    "terrain draw 0: bounce heights and apex speeds of the robot and of the pure spring-mass model on "
+                    "the same terrain, the target dashed, the paper's s.d. about it shaded (cf. paper Fig. 8, top row)"),
+             Figure("slope", "apex.png", "Rough terrain on a 1 % slope, the paper's controller with energy regulation, terrain "
+                    "draw 0, the paper's s.d. shaded (cf. paper Fig. 8, bottom row)"),),
+    animations=(Figure("flat", "running.html", "The ATRIAS-like biped running on flat ground, the paper's controller (first 3 s of the log)",
                        kind="animation"),),
     notes=("The rough-terrain rows pool the apexes of every terrain draw that did not fall (random steps every 3 m, "
            "changes up to ±25 cm: independent levels uniform within ±12.5 cm, flat on average, the reading of the "

@@ -330,6 +330,18 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
     return rec
 
 
+def paper_rough_sd(st: Settings):
+    """The paper's (bounce-height, apex-speed) s.d. for these settings' case, robot and
+    spring-mass model ((robot pair, model pair)), or None where the paper gives none (other
+    terrains or step heights, delays, model errors)."""
+    if st.terrain != "rough" or st.step_height != 0.25 or st.delay_ms or st.model_error:
+        return None
+    case = (st.energy + ("-slope" if st.rough_grade_percent == 1.0 else "") + ("-noise" if st.noise else ""))
+    robot = catalog.PAPER_ROUGH_SD.get(case)
+    smm = catalog.PAPER_ROUGH_SD["spring-mass"] if not st.rough_grade_percent else None
+    return None if robot is None else (robot, smm)
+
+
 def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
     os.makedirs(out_dir, exist_ok=True)
     data = {k: v for k, v in out.items() if k != "log"}
@@ -342,7 +354,7 @@ def _write_outputs(out_dir, st, out, sr, cp, gait, rec):
         dump_json(rec, fh, indent=1)  # strict JSON: a fallen trial's NaN statistics as null
     from bipedlab.robots.atrias import plots as run_plots
 
-    run_plots.write_all(out_dir, out, sr, cp, gait)
+    run_plots.write_all(out_dir, out, sr, cp, gait, paper_sd=paper_rough_sd(st))
     if "log" not in out:
         print("[bipedlab] no time-series or GRF figure: --trials runs keep no per-sample log "
               "(run without --trials for them)", file=sys.stderr, flush=True)
