@@ -245,7 +245,8 @@ def run_experiment(paper: Paper, exp: Experiment, quick: bool, progress: Callabl
         res.wall_s = time.perf_counter() - t0
         res.cpu_s = time.process_time() - p0
         res.compile_s = _CompileClock.total - c0
-        res.record = json.loads(dumps_json(record))
+        # paths the study wrote into its record name the temporary folder: name the stored one
+        res.record = json.loads(dumps_json(record).replace(json.dumps(str(tmp))[1:-1], json.dumps(str(where))[1:-1]))
         for p in (tmp / "out").rglob("*"):  # keep the figures, drop the bulky data files
             if p.is_file() and p.suffix.lower() not in KEPT_SUFFIXES:
                 p.unlink()

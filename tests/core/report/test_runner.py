@@ -145,3 +145,22 @@ def test_the_key_follows_the_files_a_result_can_depend_on(tmp_path, monkeypatch)
     assert runner.robot_package(test_the_key_follows_the_files_a_result_can_depend_on) is None
     from bipedlab.robots.atrias import reproduce
     assert runner.robot_package(reproduce.EXPERIMENTS[0].run) == "robots/atrias"
+
+
+def test_paths_in_a_stored_record_name_the_stored_folder(tmp_path, monkeypatch):
+    """A study that writes the path of its figure into its record: the stored record names the
+    file where it is kept, not the temporary folder the experiment ran in."""
+    monkeypatch.setenv("BIPEDLAB_CACHE_DIR", str(tmp_path / "cache"))
+
+    def study(args, out, progress):
+        with open(f"{out}/curve.png", "wb") as fh:
+            fh.write(b"\x89PNG fake")
+        return dict(figure=f"{out}/curve.png", figures=[f"{out}/curve.png"])
+
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(dict(paper="toy", title="t", citation="c", rows=[])))
+    paper = Paper("toy", "t", str(path), (Experiment("run", "toy run", study, dict(a=1), dict(a=1)),), lambda r, q: {})
+    res = runner.run_all([paper], quick=True, say=lambda m: None)["toy"][0]
+    from pathlib import Path
+    assert Path(res.record["figure"]).is_file() and ".tmp-" not in res.record["figure"]
+    assert res.record["figures"] == [res.record["figure"]] and res.record["figure"] in res.files
