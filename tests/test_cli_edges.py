@@ -275,3 +275,22 @@ def test_logs_that_identify_nothing_are_refused(tmp_path, capsys):
                          meta=dict(actuator="mLS_R", combination=2, cad_inertia=2.4e-4)), tmp_path / "t.csv")
     line = expect_usage_error(["identify", "mabel", "--data", str(tmp_path)], capsys, needle="no parameter")
     assert "two or more transmission logs" in line, line
+
+
+def test_a_warning_of_the_importer_is_one_line_beside_the_error(tmp_path):
+    """MuJoCo's warning about a file (a NaN) reaches the command line as one 'bipedlab: warning:'
+    line, beside the one error line of the refusal; no source line of the package is printed
+    (a process of its own: pytest records warnings instead of printing them)."""
+    import subprocess
+    import sys
+
+    pytest.importorskip("mujoco")
+    bad = tmp_path / "bad.xml"
+    bad.write_text('<mujoco><worldbody><body name="torso" pos="0 0 1"><joint name="rootx" type="slide" axis="1 0 0"/>'
+                   '<geom type="capsule" size="0.05" fromto="0 0 0 0 0 0.5" mass="nan"/></body></worldbody></mujoco>')
+    p = subprocess.run([sys.executable, "-m", "bipedlab.cli", "optimize", "model", str(bad), "--stance", "a",
+                        "--swing", "b"], capture_output=True, text=True, cwd=tmp_path, timeout=120)
+    assert p.returncode == 2 and p.stdout == ""
+    lines = p.stderr.strip().splitlines()
+    assert len(lines) == 2 and lines[0].startswith("bipedlab: warning: ") and "NaN" in lines[0], lines
+    assert lines[1].startswith("bipedlab: error: ") and "bad.xml" in lines[1]

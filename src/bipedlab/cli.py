@@ -61,6 +61,12 @@ def _stage_outputs(parser, args, staging: outputs.Staging) -> None:
         setattr(args, dest, staged)
 
 
+def _warning_line(message, category, filename, lineno, line=None) -> str:
+    """A Python warning as the command line prints it: one line ``bipedlab: warning: ...``
+    (not the source line the default format adds)."""
+    return one_line(f"bipedlab: warning: {message}") + "\n"
+
+
 def _fail(line: str, code: int) -> int:
     print(one_line(f"bipedlab: error: {line}"), file=sys.stderr)
     return code
@@ -81,6 +87,9 @@ def main(argv=None) -> int:
 
 
 def _main(argv) -> int:
+    import warnings
+
+    warnings.formatwarning = _warning_line
     parser, args = parse(argv)
     if args is None:
         parser.print_help()
