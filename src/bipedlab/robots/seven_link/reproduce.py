@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bipedlab.report import Experiment, Failed, Figure, Paper, Skip, dig
+from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Skip, dig
 
 DATA = Path(__file__).parent / "data" / "paper_seven_link.json"
 WALK_STEPS, QUICK_WALK_STEPS = 30, 10
@@ -55,6 +55,48 @@ def _ratio(a, b):
     return None if a is None or not b else a / b
 
 
+def _gait_rows(rec, name: str, prefix: str, quick_skip: str) -> dict:
+    """The gait-phase rows of one walk record (``gait_phases`` of
+    :func:`bipedlab.robots.seven_link.study.walk`): Fig. 8's ranges, the extended-knee stance,
+    Fig. 9's pre-emptive push-off and rolling double support."""
+    keys = [f"{prefix}fig8_{j}_{q}_range_{u}" for j in ("hip", "knee", "ankle")
+            for q, u in (("angle", "deg"), ("torque", "nm"))]
+    keys += [f"{prefix}{k}" for k in ("knee_extended_stance_fraction", "preemptive_push_off_fraction",
+                                      "push_off_ankle_work_j", "rolling_double_support_fraction")]
+    if not rec:
+        return {k: Skip(quick_skip) for k in keys}
+    g = rec.get("gait_phases")
+    if not g:
+        why = (f"the walk fell after {rec.get('steps_completed', 0)} touchdowns, too few steps to analyse "
+               f"(see experiment {name})") if rec.get("fell") else "too few steps after the transient"
+        return {k: (Failed(why) if rec.get("fell") else Skip(why)) for k in keys}
+    out = {}
+    win = dict(first_touchdown=g["window_touchdowns"][0], last_touchdown=g["window_touchdowns"][1])
+    for j in ("hip", "knee", "ankle"):
+        r = g["ranges"][j]
+        out[f"{prefix}fig8_{j}_angle_range_deg"] = Measured(r["angle_max_deg"] - r["angle_min_deg"],
+                                                             dict(low=r["angle_min_deg"], high=r["angle_max_deg"], **win))
+        out[f"{prefix}fig8_{j}_torque_range_nm"] = Measured(r["torque_max_nm"] - r["torque_min_nm"],
+                                                             dict(low=r["torque_min_nm"], high=r["torque_max_nm"], **win))
+    steps = g["steps"]
+    ns = len(steps)
+    out[f"{prefix}knee_extended_stance_fraction"] = Measured(
+        g["heel_on_knee_extended_fraction"], dict(max_flexion=g["max_heel_on_knee_flexion_deg"], **win))
+    pre = [s for s in steps if s["toe_only_before_strike"]]
+    out[f"{prefix}preemptive_push_off_fraction"] = Measured(
+        len(pre) / ns, dict(steps=ns, preemptive=len(pre), heel_strikes=sum(s["heel_strike"] for s in steps),
+                            lead_min=min(s["heel_off_lead_s"] for s in steps),
+                            lead_max=max(s["heel_off_lead_s"] for s in steps), **win))
+    work = [s["push_off_ankle_work_j"] for s in steps]
+    out[f"{prefix}push_off_ankle_work_j"] = Measured(min(work), dict(steps=ns, work_max=max(work), **win))
+    roll = [s for s in steps if s["rolling_double_support"]]
+    ds = [s["double_support_s"] for s in steps]
+    out[f"{prefix}rolling_double_support_fraction"] = Measured(
+        len(roll) / ns, dict(steps=ns, rolling=len(roll), ds_min=min(ds), ds_max=max(ds),
+                             sample=g["log_sample_s"], **win))
+    return out
+
+
 def measure(records: dict, quick: bool) -> dict:
     w, p = records.get("walk"), records.get("walk-table-ii")
     fs, pd = records.get("free-swing"), records.get("low-gain-pd")
@@ -78,8 +120,21 @@ def measure(records: dict, quick: bool) -> dict:
                                                 dig(hip, "21:1 (Table I)", "amplitude_after_1s_deg"))
     out["free_swing_knee_geared_ratio"] = _ratio(dig(knee, "60:1", "amplitude_after_1s_deg"),
                                                  dig(knee, "12:1 (Table I)", "amplitude_after_1s_deg"))
+    for j, case in (("hip", "21:1 (Table I)"), ("knee", "12:1 (Table I)")):
+        m = dig(fs, "joints", j, case)
+        if not m:
+            out[f"free_swing_{j}_period_s"] = out[f"free_swing_{j}_log_decrement"] = Skip("not run")
+            continue
+        out[f"free_swing_{j}_period_s"] = Measured(m.get("period_s"), dict(half_cycles=m.get("half_cycles")))
+        out[f"free_swing_{j}_log_decrement"] = Measured(
+            m.get("log_decrement_per_cycle"), dict(settling=m.get("settling_time_s"),
+                                                  after_1s=m.get("amplitude_after_1s_deg")))
     for j in ("hip", "knee", "ankle"):
         out[f"pd_{j}_amplitude_ratio"] = dig(pd, "joints", j, "amplitude_ratio")
+    out.update(_gait_rows(p, "walk-table-ii", "walk_table_ii_", "not run in --quick" if quick else "not run"))
+    tuned = _gait_rows(w, "walk", "walk_", "not run")
+    for k in ("knee_extended_stance_fraction", "preemptive_push_off_fraction", "rolling_double_support_fraction"):
+        out[f"walk_{k}"] = tuned[f"walk_{k}"]
     return out
 
 

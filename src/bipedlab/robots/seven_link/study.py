@@ -164,6 +164,81 @@ def gait_metrics(res, weight: float, transient: int = TRANSIENT_STEPS) -> dict:
     return out
 
 
+#: A knee flexed less than this (deg) counts as extended (on its stop) in :func:`gait_phases`:
+#: it shortens the hip-ankle distance by under 0.05 mm.
+KNEE_EXTENDED_DEG = 1.0
+
+
+def gait_phases(t, x, u, active, td_time, td_foot, transient: int = TRANSIENT_STEPS) -> dict | None:
+    """The gait's phases and ranges over the gait window of :func:`gait_metrics` (touchdowns
+    ``a`` .. n-1), from the walk's log (t, x (n, 18), u (n, 6), active (n, 6): the contacts of
+    :data:`bipedlab.robots.seven_link.robot.CONTACTS`, then the knee stops):
+
+    * ``ranges``: per joint (both legs pooled) the joint angle's and the torque's min and max
+      (deg, N m), cf. Fig. 8;
+    * ``max_heel_on_knee_flexion_deg``: the largest knee flexion (-phi_knee) of a leg while its
+      heel is on the ground (heel strike to heel lift: the stance before the push-off),
+      ``heel_on_knee_extended_fraction``: the share of those samples with the knee within
+      :data:`KNEE_EXTENDED_DEG` of full extension (on its stop), and ``single_support_fraction``:
+      the share of the window's samples with one foot on the ground;
+    * per step (each touchdown k > a; the landing foot f, the trailing foot g): ``heel_strike``
+      (the landing foot's first contact is its heel alone), ``toe_only_before_strike`` (g stood
+      on its toe alone, heel lifted, in the last logged sample before the strike: a pre-emptive
+      push-off, Fig. 9), ``heel_off_lead_s`` (from g's heel lift to the strike; negative: it lifts after),
+      ``double_support_s`` (from the strike until g leaves the ground), ``rolling_double_support``
+      (a double support with g on its toe alone throughout and f landing heel first: both feet
+      rolling), ``push_off_ankle_work_j`` (g's ankle work int u dphi/dt dt from its heel lift to
+      its toe-off). None when the window holds fewer than two steps."""
+    t, x, u, act = np.asarray(t), np.asarray(x), np.asarray(u), np.asarray(active, bool)
+    td_time, td_foot = np.asarray(td_time), np.asarray(td_foot).astype(int)
+    n = len(td_time)
+    a = min(transient, max(n - 3, 0))
+    if n - 1 - a < 2 or len(t) < 2:
+        return None
+    phi = x[:, :9] @ sl.JOINT_MAP.T + sl.JOINT_OFFSET
+    phid = x[:, 9:18] @ sl.JOINT_MAP.T
+    w = (t >= td_time[a]) & (t <= td_time[-1])
+    ranges = {}
+    for k, nm in enumerate(("hip", "knee", "ankle")):
+        ang, tq = np.rad2deg(phi[w][:, [k, 3 + k]]), u[w][:, [k, 3 + k]]
+        ranges[nm] = dict(angle_min_deg=float(ang.min()), angle_max_deg=float(ang.max()),
+                          torque_min_nm=float(tq.min()), torque_max_nm=float(tq.max()))
+    on = np.stack([act[:, 0] | act[:, 1], act[:, 2] | act[:, 3]], axis=1)  # foot touching
+    single = w & (on.sum(axis=1) == 1)
+    heel_on = w[:, None] & act[:, [1, 3]]
+    flex = -np.rad2deg(phi[:, [1, 4]])[heel_on]
+    steps = []
+    for k in range(a + 1, n):
+        f = int(td_foot[k])
+        g = 1 - f
+        toe_g, heel_g = act[:, 2 * g], act[:, 2 * g + 1]
+        i0 = int(np.searchsorted(t, td_time[k]))  # first logged sample at / after the strike
+        if i0 >= len(t) or i0 < 1:
+            continue
+        off = np.flatnonzero(~on[i0:, g])
+        i_to = i0 + off[0] if len(off) else len(t) - 1
+        heel = np.flatnonzero((t >= td_time[k - 1]) & (np.arange(len(t)) < i_to) & heel_g)
+        i_ho = heel[-1] + 1 if len(heel) else int(np.searchsorted(t, td_time[k - 1]))
+        ds = slice(i0, i_to)
+        seg = slice(i_ho, i_to + 1)
+        pw = u[seg, 3 * g + 2] * phid[seg, 3 * g + 2]
+        steps.append(dict(
+            touchdown=k, foot=f + 1,
+            heel_strike=bool(act[i0, 2 * f + 1] and not act[i0, 2 * f]),
+            toe_only_before_strike=bool(toe_g[i0 - 1] and not heel_g[i0 - 1]),
+            heel_off_lead_s=float(td_time[k] - t[i_ho]),
+            double_support_s=float(t[i_to] - td_time[k]),
+            rolling_double_support=bool(i_to > i0 and np.all(toe_g[ds] & ~heel_g[ds])
+                                        and act[i0, 2 * f + 1] and not act[i0, 2 * f]),
+            push_off_ankle_work_j=float(np.sum(0.5 * (pw[1:] + pw[:-1]) * np.diff(t[seg])))))
+    if len(steps) < 2:
+        return None
+    return dict(window_touchdowns=[int(a), int(n - 1)], log_sample_s=float(np.median(np.diff(t))), ranges=ranges,
+                max_heel_on_knee_flexion_deg=float(flex.max()) if flex.size else None,
+                heel_on_knee_extended_fraction=float(np.mean(flex <= KNEE_EXTENDED_DEG)) if flex.size else None,
+                single_support_fraction=float(single.sum() / max(w.sum(), 1)), steps=steps)
+
+
 def _finite(v):
     if v is None:
         return None
@@ -208,6 +283,8 @@ def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progres
     tail = lt >= (lt[-1] - 5.0) if nl else np.zeros(0, bool)
     rec["peak_torques_nm"] = dict(zip(sl.JOINT_NAMES, np.abs(lu).max(axis=0).round(3).tolist())) if nl else {}
     rec["body_angle_deg_mean"] = float(np.rad2deg(lx[tail, 2]).mean()) if nl else None
+    rec["gait_phases"] = gait_phases(lt, lx, lu, np.asarray(res.log_active[:nl]), np.asarray(res.td_time[:n]),
+                                     np.asarray(res.td_foot[:n])) if nl else None
     rec["gains"] = {k: np.asarray(v).round(6).tolist() for k, v in
                     dict(k=gains(params).k, b=gains(params).b, ref_deg=np.rad2deg(np.asarray(gains(params).ref))).items()}
     if setup != "planar":
