@@ -109,27 +109,27 @@ def _err(name, rel):
 # them (energy options, slope, noise, delay, model errors) run on one compiled program
 EXPERIMENTS = (
     Experiment("flat", "bipedlab run atrias --distance 60", _run, FLAT, dict(FLAT, distance=20.0),
-               reduction="20 m instead of 60 m", expected_s=70, quick_expected_s=70),
+               reduction="20 m instead of 60 m", expected_s=40, quick_expected_s=20),
     Experiment("trunk-10deg", "bipedlab run atrias --distance 20 --trunk-offset 10", _run, TRUNK, TRUNK, reduction="as in the full run",
-               expected_s=20, quick_expected_s=15),
+               expected_s=20, quick_expected_s=5),
     Experiment("rough", f"bipedlab run atrias --terrain rough --trials {TRIALS}", _run, ROUGH_REG, _quick(ROUGH_REG),
-               reduction=_R + _SD, expected_s=150, quick_expected_s=60),
+               reduction=_R + _SD, expected_s=40, quick_expected_s=15),
     Experiment("rough-conservation", f"bipedlab run atrias --terrain rough --energy conservation --trials {TRIALS}", _run,
-               ROUGH_CONS, _quick(ROUGH_CONS), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
+               ROUGH_CONS, _quick(ROUGH_CONS), reduction=_R + _SD, expected_s=40, quick_expected_s=4),
     Experiment("slope", f"bipedlab run atrias --terrain rough --slope 1 --trials {TRIALS}", _run, SLOPE,
-               _quick(SLOPE), reduction=_R + _SD, expected_s=150, quick_expected_s=15),
+               _quick(SLOPE), reduction=_R + _SD, expected_s=40, quick_expected_s=15),
     Experiment("slope-conservation",
                f"bipedlab run atrias --terrain rough --slope 1 --energy conservation --trials {TRIALS}", _run,
-               SLOPE_CONS, _quick(SLOPE_CONS), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
+               SLOPE_CONS, _quick(SLOPE_CONS), reduction=_R + _SD, expected_s=40, quick_expected_s=4),
     Experiment("noise", f"bipedlab run atrias --terrain rough --energy conservation --noise --trials {TRIALS}", _run,
-               NOISE, _quick(NOISE), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
+               NOISE, _quick(NOISE), reduction=_R + _SD, expected_s=40, quick_expected_s=4),
     Experiment("delay", f"bipedlab run atrias --terrain rough --energy conservation --delay-ms 10 --trials {TRIALS}",
-               _run, DELAY, _quick(DELAY), reduction=_R + _SD, expected_s=150, quick_expected_s=10),
+               _run, DELAY, _quick(DELAY), reduction=_R + _SD, expected_s=40, quick_expected_s=4),
 ) + tuple(
     Experiment(f"{name}{rel:+.0%}".replace("%", "pct"),
                f"bipedlab run atrias --terrain rough --energy conservation --model-error {name}={rel:g} "
                f"--trials {ERR_TRIALS}", _run, _err(name, rel), _quick(_err(name, rel)),
-               reduction=_R_ERR + _SD, expected_s=120, quick_expected_s=10)
+               reduction=_R_ERR + _SD, expected_s=30, quick_expected_s=4)
     for name, rel in (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
                       ("inertia", 0.5), ("inertia", -0.5), ("friction", 0.5), ("friction", -0.5)))
 
@@ -142,7 +142,7 @@ def _variant(name: str, of: str) -> Experiment:
     e = next(x for x in EXPERIMENTS if x.name == of)
     full, quick = (dict(a, controller="bipedlab", figures=False) for a in (e.full_args, e.quick_args))
     return Experiment(name, e.command + " --controller bipedlab", _run, full, quick, reduction=e.reduction,
-                      expected_s=e.expected_s, quick_expected_s=10)
+                      expected_s=e.expected_s, quick_expected_s=4)
 
 
 EXPERIMENTS = EXPERIMENTS + tuple(_variant(n, of) for n, of in VARIANTS.items())

@@ -81,14 +81,14 @@ IDENTIFICATION_EXPERIMENTS = (
     Experiment("identify", "bipedlab identify mabel --synthetic", _identify, dict(seed=0, noise=1.0, quick=False),
                dict(seed=0, noise=1.0, quick=True),
                reduction="reduced experiment design (shorter chirps, fewer postures and hops; the sysid study's quick design)",
-               expected_s=900, quick_expected_s=220),
+               expected_s=240, quick_expected_s=60),
     Experiment("hop", f"bipedlab hop mabel --hops {HOPS}", _hop, dict(hops=HOPS, torso_update=True, poincare=True),
                dict(hops=QUICK_HOPS, torso_update=True, poincare=False),
                reduction=f"{QUICK_HOPS} hops instead of {HOPS}; no Poincaré analysis (it compiles for minutes)",
-               expected_s=600, quick_expected_s=50),
+               expected_s=150, quick_expected_s=10),
     Experiment("hop-no-update", f"bipedlab hop mabel --hops {HOPS} --no-torso-update --no-poincare", _hop,
                dict(hops=HOPS, torso_update=False, poincare=False), dict(hops=QUICK_HOPS, torso_update=False, poincare=False),
-               reduction=f"{QUICK_HOPS} hops instead of {HOPS}", expected_s=120, quick_expected_s=10),
+               reduction=f"{QUICK_HOPS} hops instead of {HOPS}", expected_s=40, quick_expected_s=3),
 )
 
 GROUP_ROWS = ("motor_constant", "rotor_inertia_scale", "friction", "spring_stiffness", "cable_stretch")
@@ -294,35 +294,35 @@ HZD_EXPERIMENTS = (
     Experiment("design", "bipedlab optimize mabel --speed 0.8 [--cost cmt]", _designs, dict(source="optimize"),
                dict(source="shipped"), reduction="reads the shipped gait files paper-nominal and paper-efficient "
                "(written by these commands, with their stored Poincaré eigenvalues) instead of optimising and "
-               "linearising again", expected_s=900, quick_expected_s=35),
+               "linearising again", expected_s=360, quick_expected_s=10),
     _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, QUICK_WALK_STEPS,
-              f"{QUICK_WALK_STEPS} steps instead of 100", 420, 60),
+              f"{QUICK_WALK_STEPS} steps instead of 100", 70, 15),
     _walk_exp("push", "bipedlab experiment mabel push", 30, QUICK_PUSH_STEPS,
               f"the two pushes under PD + feedforward only, in step {QUICK_PUSH_STEP} of {QUICK_PUSH_STEPS}-step walks "
-              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 300, 30,
+              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 360, 15,
               push_step=QUICK_PUSH_STEP, controllers=["pdff"], search=False, reference_from=1),
     _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, QUICK_WALK_STEPS,
-              f"{QUICK_WALK_STEPS} steps instead of 100", 200, 12),
+              f"{QUICK_WALK_STEPS} steps instead of 100", 30, 5),
     _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, QUICK_WALK_STEPS,
               f"PD + feedforward and I/O linearisation only (not the decentralised form), {QUICK_WALK_STEPS} steps "
               "instead of 30; beside each walk the same walk with exact encoders and on the 13-DoF plant (the causes of "
-              "the tracking difference)", 600, 110, controllers=["pdff", "iolin"]),
+              "the tracking difference)", 150, 45, controllers=["pdff", "iolin"]),
     _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40, QUICK_ETA_STEPS,
               f"eta in {{{', '.join(f'{e:g}' for e in QUICK_ETAS)}}} only, {QUICK_ETA_STEPS} steps each with the speed "
               f"of the last {QUICK_ETA_AVERAGE} (instead of six values, 40 steps, the last 10); no PD + feedforward "
-              "column", 500, 35, etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False),
+              "column", 170, 15, etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False),
     _walk_exp("fast", "bipedlab experiment mabel fast", 100, QUICK_FAST_STEPS,
               f"the 0.7 rad lean in {QUICK_LEAN_STEPS} increments instead of 30, then {QUICK_FAST_STEPS} steps instead "
-              "of 100; no comparison runs", 500, 25, lean_steps=QUICK_LEAN_STEPS, comparisons=False),
+              "of 100; no comparison runs", 100, 8, lean_steps=QUICK_LEAN_STEPS, comparisons=False),
     Experiment("pd-gains", "bipedlab experiment mabel pd-gains", _wx("pd-gains"), dict(steps=None),
                dict(steps=None, options=dict(kp_scales=list(QUICK_PD_SCALES), kd_scales=list(QUICK_PD_SCALES))),
                reduction=f"factors {{{', '.join(f'{a:g}' for a in QUICK_PD_SCALES)}}} on kp and on kd (a 3 x 3 grid "
-               "instead of 5 x 5)", expected_s=240, quick_expected_s=110),
+               "instead of 5 x 5)", expected_s=60, quick_expected_s=30),
     _walk_exp("exp4", "bipedlab experiment mabel exp4", 30, QUICK_WALK_STEPS,
-              f"{QUICK_WALK_STEPS} steps instead of 30; no run without the 6/10 N m limits", 300, 20, compare=False),
+              f"{QUICK_WALK_STEPS} steps instead of 30; no run without the 6/10 N m limits", 30, 5, compare=False),
     _walk_exp("full-plant", "bipedlab experiment mabel full-plant", 100, QUICK_FULL_PLANT_STEPS,
               f"the two gaits designed on the paper's design model only, {QUICK_FULL_PLANT_STEPS} steps each instead "
-              "of 100 (and not the full-model gaits)", 600, 60, gaits=["paper-nominal", "paper-efficient"]),
+              "of 100 (and not the full-model gaits)", 60, 10, gaits=["paper-nominal", "paper-efficient"]),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
