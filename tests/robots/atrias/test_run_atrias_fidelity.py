@@ -199,3 +199,12 @@ def test_settle_steps_counts_the_touchdowns_until_the_pitch_error_stays_in_the_b
     assert ra.settle_steps(t, theta, mode, star, band_deg=0.5) == 4      # 0.5 ln 20 = 1.50 s
     assert ra.settle_steps(t, np.full_like(t, star), mode, star) == 0
     assert ra.settle_steps(t[:700], theta[:700], mode[:700], star) is None
+
+
+def test_a_perturbed_single_run_reports_its_settling_and_no_trial_statistics():
+    """A single run with a trunk offset is still a single run: its record has the settling
+    steps and the run's status, not the batched runs' success rate and trial count (which the
+    report reads to tell a batch from a single run)."""
+    rec = ra.study(ra.Settings(terrain="flat", seconds=1.5, theta0_offset_deg=10.0))
+    assert "trials" not in rec and "success_rate" not in rec and rec["status"] == "ok"
+    assert "trunk_settle_steps" in rec and rec["theta0_offset_deg"] == 10.0

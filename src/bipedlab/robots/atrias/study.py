@@ -316,13 +316,13 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
                              speed_error_mean_mps=steady["speed_error_steady_mps"])
     if single:
         rec["status"] = ar.STATUS_NAMES[int(out["status"][0])]
+    else:
+        rec.update(success_rate=float(np.mean(ok)), trials=n)
     if perturbed:
         lg = out["log"]
         rec["theta0_offset_deg"] = st.theta0_offset_deg
         rec["trunk_settle_steps"] = settle_steps(lg["t"][0], lg["q"][0][:, 2], lg["mode"][0], float(cp.theta_star))
         rec["trunk_settle_band_deg"] = SETTLE_BAND_DEG
-    else:
-        rec.update(success_rate=float(np.mean(ok)), trials=n)
     srec, sr = slip_model(st, terr, n, gait)
     rec["slip_model"] = srec
     if out_dir:
