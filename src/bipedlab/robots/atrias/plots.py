@@ -40,12 +40,11 @@ def apex_figure(path, out, sr, gait, paper_sd=None):
     ax[1, 0].plot(x, out["speed"][0, :k], "o", color="tab:cyan", ms=4)
     ax[1, 0].axhline(gait.speed, ls="--", color="g")
     robot_sd, smm_sd = paper_sd if paper_sd is not None else (None, None)
-    for col, sd, who in ((0, robot_sd, "robot"), (1, smm_sd, "model")):
+    for col, sd in ((0, robot_sd), (1, smm_sd)):
         for row in (0, 1):
             _paper_band(ax[row, col], (gait.y_apex, gait.speed)[row], None if sd is None else sd[row],
-                        f"paper: target \u00b1 its s.d. (Sec. IV-B)")
-    b0 = out["bounce"][0, :k]
-    ax[0, 0].set_title(f"robot model (trial 0): s.d. {100 * np.std(b0):.1f} cm, "
+                        "paper: target \u00b1 its s.d. (Sec. IV-B)")
+    ax[0, 0].set_title(f"robot model (trial 0): s.d. {100 * np.std(out['bounce'][0, :k]):.1f} cm, "
                        f"{100 * np.std(out['speed'][0, :k]):.1f} cm/s"
                        + (f" (paper {100 * robot_sd[0]:.1f} cm, {100 * robot_sd[1]:.1f} cm/s)" if robot_sd else ""),
                        fontsize=9)

@@ -174,12 +174,13 @@ def measure(records: dict, quick: bool) -> dict:
         out["flat_slip_apex_error_m"] = dig(flat, "slip_model", "apex_height_error_mean_m")
         out["flat_slip_speed_error_mps"] = dig(flat, "slip_model", "speed_error_mean_mps")
     trunk = records.get("trunk-10deg")
-    if trunk is not None:
-        out["trunk_settle_steps"] = (Failed("the 10 deg trunk perturbation had not settled within "
-                                            f"{trunk['trunk_settle_band_deg']:g} deg by the run's last second")
-                                     if trunk.get("fell") is False and trunk.get("trunk_settle_steps") is None
-                                     else Failed("the run with the trunk perturbation fell") if trunk.get("fell")
-                                     else trunk["trunk_settle_steps"])
+    if trunk is not None and trunk.get("fell"):
+        out["trunk_settle_steps"] = Failed("the run with the trunk perturbation fell")
+    elif trunk is not None and trunk.get("trunk_settle_steps") is None:
+        out["trunk_settle_steps"] = Failed("the 10 deg trunk perturbation had not settled within "
+                                           f"{trunk['trunk_settle_band_deg']:g} deg by the run's last second")
+    elif trunk is not None:
+        out["trunk_settle_steps"] = trunk["trunk_settle_steps"]
     for name, prefix in (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"),
                          ("slope-conservation", "slope_cons"), ("noise", "noise"), ("delay", "delay")):
         out.update(_stats(records.get(name), prefix, missing))
@@ -197,11 +198,10 @@ def measure(records: dict, quick: bool) -> dict:
     return {k: v for k, v in out.items() if k in rows}
 
 
-def _difference(a, b, missing: Skip, **facts):
-    """a - b as a Measured with both beside it (``this``, ``reference``), or why not."""
-    if a is None or b is None:
-        return missing if isinstance(a, Skip) or isinstance(b, Skip) else None
-    return Measured(a - b, dict(this=a, reference=b, **facts))
+def _difference(a, b, **facts):
+    """a - b as a Measured with both beside it (``this``, ``reference``); None where either
+    record lacks its number."""
+    return None if a is None or b is None else Measured(a - b, dict(this=a, reference=b, **facts))
 
 
 def _slope_losses(records: dict, missing: Skip) -> dict:
@@ -212,9 +212,9 @@ def _slope_losses(records: dict, missing: Skip) -> dict:
     slope, rough = records.get("slope"), records.get("rough")
     cons_s, cons = records.get("slope-conservation"), records.get("rough-conservation")
     slip = (_difference(dig(slope, "slip_model", "speed_error_mean_mps"), dig(rough, "slip_model", "speed_error_mean_mps"),
-                        missing, success=dig(slope, "slip_model", "success_rate"))
+                        success=dig(slope, "slip_model", "success_rate"))
             if slope is not None and rough is not None else missing)
-    robot = (_difference(dig(cons_s, "speed_error_mean_mps"), dig(cons, "speed_error_mean_mps"), missing,
+    robot = (_difference(dig(cons_s, "speed_error_mean_mps"), dig(cons, "speed_error_mean_mps"),
                          success=dig(cons_s, "success_rate"))
              if cons_s is not None and cons is not None else missing)
     return {"slope_slip_speed_loss_mps": slip, "slope_cons_speed_loss_mps": robot}

@@ -387,23 +387,15 @@ def measure_hzd(records: dict, quick: bool) -> dict:
             (dig(pdg, "closest_to_paper", g, "dominant_eigenvalue", "abs") or Failed("no grid point had a fixed point"))
             if pdg else Skip("not run"))
     ex4 = records.get("exp4")
-    for key, field in (("exp4_speed_mps", "speed_mps"), ("exp4_cmt", "cmt")):
-        if not ex4:
-            out[key] = skip
-        elif ex4["fell"]:
-            out[key] = Failed(f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) "
-                            "under the 6 / 10 N m limits: a fallen run has no speed or c_mt (see experiment exp4)")
-        else:
-            out[key] = dig(ex4, field)
-    for o in ("tor", "mLS_st"):
-        key = f"exp4_{o}_peak_deg"
-        if not ex4:
-            out[key] = skip
-        elif ex4["fell"]:
-            out[key] = Failed(f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1}: its peak error is the "
-                              "fall's, not the walk's (see experiment exp4)")
-        else:
-            out[key] = dig(ex4, "tracking_peak_deg", "Tor" if o == "tor" else o)
+    fell4 = (f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) under the "
+             "6 / 10 N m limits" if ex4 and ex4["fell"] else None)
+    for key, path, lost in (("exp4_speed_mps", ("speed_mps",), "a fallen run has no speed or c_mt"),
+                            ("exp4_cmt", ("cmt",), "a fallen run has no speed or c_mt"),
+                            ("exp4_tor_peak_deg", ("tracking_peak_deg", "Tor"), "its peak error is the fall's, not the walk's"),
+                            ("exp4_mLS_st_peak_deg", ("tracking_peak_deg", "mLS_st"),
+                             "its peak error is the fall's, not the walk's")):
+        out[key] = (skip if not ex4 else Failed(f"{fell4}: {lost} (see experiment exp4)") if fell4
+                    else dig(ex4, *path))
     gap = (records.get("full-plant") or {}).get("runs", {})
     for g, key in (("paper-nominal", "fullplant_nominal"), ("paper-efficient", "fullplant_efficient")):
         x = gap.get(g)

@@ -146,16 +146,27 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
     return _setup_simulator(settings_for(steps))(x0, active0, p, ctl.initial_state(x0), plant)
 
 
+#: the fewest whole steps a gait window must hold to measure a gait over it
+MIN_WINDOW_STEPS = 2
+
+
+def gait_window_start(n: int, transient: int = TRANSIENT_STEPS) -> int:
+    """The first touchdown of the gait window of a walk with ``n`` touchdowns: after
+    ``transient`` of them, moved earlier on a short walk so that the window keeps what steps
+    there are (it holds n - 1 - start whole steps)."""
+    return min(transient, max(n - 3, 0))
+
+
 def gait_metrics(res, weight: float, transient: int = TRANSIENT_STEPS) -> dict:
     """Speed, step length, step frequency and c_mt over the touchdowns after ``transient``."""
     n = int(res.n_touchdowns)
     t = np.asarray(res.td_time[:n])
     hx = np.asarray(res.td_hip_x[:n])
     wk = np.asarray(res.td_work[:n])
-    a = min(transient, max(n - 3, 0))
+    a = gait_window_start(n, transient)
     out = dict(speed_mps=None, step_length_m=None, step_frequency_hz=None, cmt=None, cmt_positive=None,
                gait_window_steps=max(n - 1 - a, 0))
-    if n - 1 - a >= 2:
+    if n - 1 - a >= MIN_WINDOW_STEPS:
         dist = hx[-1] - hx[a]
         dur = t[-1] - t[a]
         out.update(speed_mps=dist / dur, step_length_m=dist / (n - 1 - a), step_frequency_hz=(n - 1 - a) / dur)
@@ -192,8 +203,8 @@ def gait_phases(t, x, u, active, td_time, td_foot, transient: int = TRANSIENT_ST
     t, x, u, act = np.asarray(t), np.asarray(x), np.asarray(u), np.asarray(active, bool)
     td_time, td_foot = np.asarray(td_time), np.asarray(td_foot).astype(int)
     n = len(td_time)
-    a = min(transient, max(n - 3, 0))
-    if n - 1 - a < 2 or len(t) < 2:
+    a = gait_window_start(n, transient)
+    if n - 1 - a < MIN_WINDOW_STEPS or len(t) < 2:
         return None
     phi = x[:, :9] @ sl.JOINT_MAP.T + sl.JOINT_OFFSET
     phid = x[:, 9:18] @ sl.JOINT_MAP.T
