@@ -19,8 +19,9 @@ from typing import Callable
 
 import jax
 import jax.numpy as jnp
+import numpy as np
 
-from bipedlab.mechanics.stance import Stance, ground_reaction, stance_affine
+from bipedlab.mechanics.stance import Stance, ground_reaction, pinned_terms, stance_affine
 from bipedlab.control import bezier as bz
 
 
@@ -112,14 +113,55 @@ def lift(vc: VirtualConstraints, theta, theta_dot):
 
 
 def zero_dynamics(vc: VirtualConstraints, st: Stance, theta, theta_dot):
-    """(theta_ddot, u*, ground reaction, z) on Z at (theta, theta_dot)."""
-    q, qd = lift(vc, theta, theta_dot)
-    z = jnp.concatenate([q, qd])
-    a, b, la, lb = stance_affine(st, z)
-    y, yd, L2, LgLf = lie_derivatives(lambda q_: output(vc, q_), q, qd, a, b)
-    u = -jnp.linalg.solve(LgLf, L2)
-    qdd = a + b @ u
-    return vc.c @ qdd, u, la + lb @ u, z
+    """(theta_ddot, u*, ground reaction, z) on Z at (theta, theta_dot).
+
+    On Z the stance accelerations are ``qdd = s1 theta_ddot + s2 theta_dot^2`` with
+    ``s1 = A^-1 [h_d'; 1]`` and ``s2 = A^-1 [h_d''; 0]`` (A = [H0; c]), and the pinned point's
+    constraint gives the base's, so ``M qdd + bias = B u + J^T lambda`` is one square system in
+    (theta_ddot, u, lambda). The same solution as eliminating u through the decoupling matrix
+    (``u* = -LgLfh^-1 Lf2h``, :func:`u_star`), at a fraction of the operations: the design
+    evaluates this at every RK4 stage, inside its forward-mode Jacobian."""
+    theta = jnp.asarray(theta, dtype=float)
+    A = jnp.concatenate([vc.H0, vc.c[None, :]], 0)
+    hd, dhd, ddhd = desired(vc, theta)
+    one, zero = jnp.ones(1), jnp.zeros(1)
+    sol = jnp.linalg.solve(A, jnp.stack([jnp.concatenate([hd, theta[None]]), jnp.concatenate([dhd, one]),
+                                         jnp.concatenate([ddhd, zero])], 1))
+    q, s1, s2 = sol[:, 0], sol[:, 1], sol[:, 2]
+    z = jnp.concatenate([q, s1 * theta_dot])
+    model = st.model
+    M, h, J, jd = pinned_terms(st, z)
+    Js = J[:, 2:]  # d(point)/d(base x, y) is the identity
+    td2 = theta_dot * theta_dot
+    p1 = jnp.concatenate([-(Js @ s1), s1])
+    p0 = jnp.concatenate([-jd - (Js @ s2) * td2, s2 * td2])
+    # the unactuated rows N (N B = 0) hold (theta_ddot, lambda); B's pseudo-inverse then gives u
+    N, Bp = _actuation_split(model)
+    rhs = M @ p0 + h
+    K = jnp.concatenate([(N @ (M @ p1))[:, None], -(N @ J.T)], 1)
+    w = _solve_small(K, -(N @ rhs))
+    lam = w[1:]
+    u = Bp @ (M @ p1 * w[0] + rhs - J.T @ lam)
+    return w[0], u, lam, z
+
+
+def _actuation_split(model):
+    """(N, B+): an orthonormal basis of the rows annihilating the actuation matrix B and B's
+    pseudo-inverse (constants of the model)."""
+    B = np.asarray(model.actuation_matrix(), float)
+    U, sv, _ = np.linalg.svd(B)
+    rank = int(np.sum(sv > 1e-12 * max(sv.max(initial=0.0), 1.0)))
+    return U[:, rank:].T, np.linalg.pinv(B)
+
+
+def _solve_small(K, b):
+    """K^-1 b for the 3 x 3 system of a point-foot stance (Cramer's rule written out: no
+    factorisation call per evaluation); any other size by LU."""
+    if K.shape != (3, 3):
+        return jnp.linalg.solve(K, b)
+    c0 = jnp.cross(K[:, 1], K[:, 2])
+    det = K[:, 0] @ c0
+    return jnp.stack([b @ c0, K[:, 0] @ jnp.cross(b, K[:, 2]), K[:, 0] @ jnp.cross(K[:, 1], b)]) / det
 
 
 def closed_loop_flow(vc: VirtualConstraints, st: Stance, control: Callable):

@@ -267,15 +267,15 @@ def _scalar_problem(prob: GaitProblem, cost_scale: float):
     ev = evaluator(prob)
 
     def f(x):
-        cost, eq, ineq, _ = ev(x)
-        return np.concatenate([[float(cost) / cost_scale], np.asarray(eq), np.asarray(ineq)])
+        cost, eq, ineq = jax.device_get(ev(x)[:3])  # one transfer
+        return np.concatenate([[float(cost) / cost_scale], eq, ineq])
 
     def vec(x, scale):
         cost, eq, ineq, _ = evaluate(prob, x)
         return jnp.concatenate([(cost / scale)[None], eq, ineq])
 
     jac = _compiled(prob, "jacobian", lambda: jax.jit(jax.jacfwd(vec)))
-    return f, lambda x: jac(x, jnp.asarray(cost_scale, float))
+    return f, lambda x: jac(x, np.float64(cost_scale))
 
 
 @dataclasses.dataclass
@@ -306,13 +306,13 @@ def solve(prob: GaitProblem, x0, tol: float = 1e-10, maxiter: int = 300, warm_st
         def vals(x):  # values only: line-search trial points need no derivatives
             key = ("f", x.tobytes())
             if key not in cache:
-                cache[key] = np.asarray(f(jnp.asarray(x)))
+                cache[key] = f(x)  # a NumPy argument goes to the program without an eager copy
             return cache[key]
 
         def jac(x):
             key = ("j", x.tobytes())
             if key not in cache:
-                cache[key] = np.asarray(jf(jnp.asarray(x)))
+                cache[key] = np.asarray(jf(x))
             return cache[key]
 
         cons = [

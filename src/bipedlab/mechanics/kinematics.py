@@ -154,15 +154,22 @@ def point_position(model: Model, q, point: PointRef) -> jax.Array:
 
 def point_jacobian(model: Model, q, point: PointRef) -> jax.Array:
     """Jacobian d(position)/dq of a named point, shape (2, nq)."""
-    k = _resolve(model, point)
-    fr = frames(model, q)
+    return jacobian_from_frames(model, frames(model, q), _resolve(model, point), jnp.zeros_like(q[0]))
+
+
+def jacobian_from_frames(model: Model, fr: Frames, k: int, zero) -> jax.Array:
+    """Jacobian (2, nq) of point k from computed frames (``zero``: a 0 of q's dtype)."""
     b = model.point_bodies[k]
     p = _point_world(model, fr, b, _point_offset(model, k))
     cols = _jacobian_columns(model, fr, b, p)
-    zero = jnp.zeros_like(q[0])
     return jnp.stack(
         [jnp.stack([cols[j][i] + zero if j in cols else zero for j in range(model.nq)]) for i in range(2)]
     )
+
+
+def jdot_qd_from_frames(model: Model, fr: Frames, vel: Velocities, k: int) -> jax.Array:
+    """J-dot qd (2,) of point k from computed frames and velocities."""
+    return jnp.stack(_point_velocity_accel(model, fr, vel, model.point_bodies[k], _point_offset(model, k))[2])
 
 
 def _point_velocity_accel(model: Model, fr: Frames, vel: Velocities, body: int, offset: Vec):

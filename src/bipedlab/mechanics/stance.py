@@ -18,7 +18,8 @@ import dataclasses
 import jax
 import jax.numpy as jnp
 
-from bipedlab.mechanics.dynamics import bias, mass_matrix
+from bipedlab.mechanics import kinematics as kin
+from bipedlab.mechanics.dynamics import bias, bias_entries, dense, mass_matrix, mass_matrix_entries
 from bipedlab.mechanics.impact import impact_map, relabel
 from bipedlab.mechanics.kinematics import point_jacobian, point_jdot_qd, point_position, point_velocity
 from bipedlab.mechanics.tree import Model
@@ -55,6 +56,25 @@ def embed(st: Stance, z):
     J = point_jacobian(st.model, q, st.stance)
     qd = jnp.concatenate([-(J[:, 2:] @ qds), qds])
     return q, qd
+
+
+def pinned_terms(st: Stance, z):
+    """(M, bias, J, Jdot qd) of the floating model at stance state z with the stance point
+    pinned, from one kinematic pass: none of them depends on the base's position, so the pass
+    runs at the base's origin (the same values as ``mass_matrix``, ``bias``, ``point_jacobian``
+    and ``point_jdot_qd`` at :func:`embed`'s full state)."""
+    model, n = st.model, st.n
+    qs, qds = z[:n], z[n:]
+    q0 = jnp.concatenate([jnp.zeros(2), qs])
+    fr = kin.frames(model, q0)
+    zero = jnp.zeros_like(qs[0])
+    J = kin.jacobian_from_frames(model, fr, st.stance, zero)
+    qd = jnp.concatenate([-(J[:, 2:] @ qds), qds])
+    vel = kin.velocities(model, fr, qd)
+    jd = kin.jdot_qd_from_frames(model, fr, vel, st.stance)
+    M = dense(mass_matrix_entries(model, fr), zero)
+    h = jnp.stack([e + zero for e in bias_entries(model, fr, vel)])
+    return M, h, J, jd
 
 
 def reduce(q, qd):

@@ -239,3 +239,23 @@ def test_shipped_touchdown_is_a_valid_impact(impact_data):
     Fx, Fy = d["impulse"][0]
     assert Fy > 0 and abs(Fx) <= 0.6 * Fy + 1e-9
     assert d["lift"][0, 1] > -1e-9
+
+
+def test_pinned_terms_match_the_lagrangian_at_the_embedded_state(st, states):
+    """One kinematic pass at the base's origin gives the full state's M, bias, J and Jdot qd
+    (translation invariance), checked against the independent Lagrangian and autodiff."""
+    L = oracles.FIVE_LINK
+    foot = lambda q: oracles.five_link_foot(q, 0)  # noqa: E731
+
+    def one(z):
+        q, qd = stm.embed(st, z)
+        M, h, J, jd = stm.pinned_terms(st, z)
+        Jd = jax.jvp(jax.jacfwd(foot), (q,), (qd,))[1] @ qd
+        return dict(M=M - L.mass_matrix(q), h=h - L.bias(q, qd), J=J - jax.jacfwd(foot)(q), jd=jd - Jd,
+                    scale_M=jnp.max(jnp.abs(L.mass_matrix(q))), scale_h=jnp.max(jnp.abs(L.bias(q, qd))))
+
+    d = {k: np.asarray(v) for k, v in jax.jit(jax.vmap(one))(states[0]).items()}
+    assert np.max(np.abs(d["M"])) <= 1e-12 * np.max(d["scale_M"])
+    assert np.max(np.abs(d["h"])) <= 1e-11 * np.max(d["scale_h"])
+    np.testing.assert_allclose(d["J"], 0.0, atol=1e-14)
+    np.testing.assert_allclose(d["jd"], 0.0, atol=1e-11)
