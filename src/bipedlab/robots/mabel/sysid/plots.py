@@ -14,6 +14,10 @@ from bipedlab.viz import figures
 
 SIM = dict(color="tab:red", lw=1.2, label="simulation")
 EXP = dict(color="tab:blue", lw=1.0, ls=":", label="experiment")
+#: the paper's values drawn beside the fits (Fig. 19's spring lines)
+PAPER = P.published()
+#: Fig. 17: "All center of mass horizontal distances stay within 6mm."
+PAPER_COM_MM = 6.0
 
 
 def _transmission(ident, out, paths):
@@ -86,7 +90,12 @@ def _springs(ident, out, paths):
         pts = ax.plot(f.deflection, f.torque, "o", label=f"{s}: K_B {f.stiffness:.1f} N m/rad, tau_0 {f.preload:.2f} N m")[0]
         x = np.linspace(0.0, f.deflection.max() * 1.05, 10)
         ax.plot(x, f.stiffness * x + f.preload, color=pts.get_color(), lw=0.8)
-    ax.set(title="spring torque against deflection (Fig. 19)", xlabel="q_Bsp (rad)", ylabel="tau_Bsp (N m)")
+        k = P.SIDES.index(s) if s in P.SIDES else None
+        if k is not None:  # the paper's Fig. 19 line for this leg
+            ax.plot(x, PAPER.spring_k[k] * x + PAPER.spring_preload[k], color=pts.get_color(), lw=1.0, ls="--",
+                    label=f"{s}, paper Fig. 19: {PAPER.spring_k[k]:.1f} q + {PAPER.spring_preload[k]:.3f}")
+    ax.set(title="spring torque against deflection (Fig. 19; dashed: the paper's fits)", xlabel="q_Bsp (rad)",
+           ylabel="tau_Bsp (N m)")
     ax.legend(fontsize=8)
     figures.save(fig, out / "identify_springs.png", paths)
 
@@ -99,6 +108,10 @@ def _com(ident, out, paths):
     for ax, (name, d) in zip(axes[0], cc.distance_mm.items()):
         ax.bar(np.arange(1, len(d) + 1), d)
         ax.axhline(0.0, color="k", lw=0.5)
+        for sgn in (-1.0, 1.0):  # the paper: every distance within 6 mm
+            ax.axhline(sgn * PAPER_COM_MM, color="k", ls="--", lw=0.8,
+                       label=f"paper Fig. 17: within {PAPER_COM_MM:g} mm" if sgn > 0 else None)
+        ax.legend(fontsize=8)
         ax.set(title=f"{name}: COM - {cc.support[name]} (Fig. 17)", xlabel="posture", ylabel="mm")
     figures.save(fig, out / "identify_com.png", paths)
 

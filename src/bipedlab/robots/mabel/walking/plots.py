@@ -59,6 +59,7 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     for k, n in enumerate(tb.ACTUATORS):
         ax.plot(t, u[:, k], label=n.replace("_L", " st").replace("_R", " sw"))
     marks(ax)
+    _capacities(ax)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("motor torque (N m)")
     ax.legend(fontsize=8)
@@ -93,6 +94,17 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     return paths
 
 
+def _capacities(ax):
+    """The paper's peak torque capacities (Sec. III: 30 N m at u_mLA, 55 N m at u_mLS) as dashed
+    lines at +- each, labelled; the axis keeps the data's own range when it lies well inside."""
+    lo, hi = ax.get_ylim()
+    for name, cap in tb.TORQUE_CAPACITY.items():
+        ls = "--" if name == "mLS" else "-."
+        for sgn in (-1.0, 1.0):
+            ax.axhline(sgn * cap, color="k", ls=ls, lw=0.8, label=f"paper: {name} capacity +-{cap:g} N m" if sgn > 0 else None)
+    ax.set_ylim(min(lo, -1.05 * max(tb.TORQUE_CAPACITY.values())), max(hi, 1.05 * max(tb.TORQUE_CAPACITY.values())))
+
+
 def _com_height(m, z):
     from bipedlab.robots.mabel.dynamics import com_position
 
@@ -119,6 +131,7 @@ def walk_figures(out, log: dict, r: dict) -> list[str]:
     fig, ax = figures.subplots(figsize=(7, 3.5))
     for k, name in enumerate(("mLA st", "mLS st", "mLA sw", "mLS sw")):
         ax.plot(t[sl], log["u"][sl, k], label=name, lw=0.8)
+    _capacities(ax)
     ax.set_xlabel("time (s)")
     ax.set_ylabel("motor torque (N m)")
     ax.legend(fontsize=8)
