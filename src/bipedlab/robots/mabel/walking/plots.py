@@ -94,6 +94,26 @@ def gait_figures(out, m, design: md.Design, prefix: str = "") -> list[str]:
     return paths
 
 
+#: Exp. 2 (HZD paper Sec. V-B, Fig. 16): a forward push speeds the robot up by roughly 45 % and
+#: the speed converges back over the next ten steps; a backward push slows it by roughly 45 %,
+#: back within three steps. (relative change, steps to recover) by the push's sign.
+PAPER_PUSH = {1: (0.45, 10), -1: (-0.45, 3)}
+
+
+def _paper_push_marks(ax, sp, push_step: int, force: float):
+    """The paper's Fig. 16 beside a pushed walk: the speed before the push (dotted), the
+    paper's roughly +-45 % change from it (dashed) and the step by which the paper's robot was
+    back to nominal (dash-dotted)."""
+    before = [v for v in sp[:push_step] if v is not None and np.isfinite(v)]
+    if not before or force == 0:
+        return
+    base = float(np.mean(before[-3:]))
+    change, recover = PAPER_PUSH[1 if force > 0 else -1]
+    ax.axhline(base, color="0.5", ls=":", lw=1, label=f"before the push {base:.3f} m/s")
+    ax.axhline(base * (1 + change), color="k", ls="--", lw=1, label=f"paper Fig. 16: {change:+.0%} from nominal")
+    ax.axvline(push_step + 1 + recover, color="k", ls="-.", lw=1, label=f"paper: back to nominal within {recover} steps")
+
+
 def _capacities(ax):
     """The paper's peak torque capacities (Sec. III: 30 N m at u_mLA, 55 N m at u_mLS) as dashed
     lines at +- each, labelled; the axis keeps the data's own range when it lies well inside."""
@@ -142,6 +162,7 @@ def walk_figures(out, log: dict, r: dict) -> list[str]:
     ax.plot(np.arange(1, len(sp) + 1), sp, "o-", ms=3)
     if r.get("push_step") is not None:
         ax.axvline(r["push_step"] + 1, color="r", lw=2, label=f"push {r['push_force_n']:+.0f} N")
+        _paper_push_marks(ax, sp, int(r["push_step"]), float(r["push_force_n"]))
         ax.legend(fontsize=8)
     ax.set_xlabel("step")
     ax.set_ylabel("speed (m/s)")
