@@ -85,10 +85,11 @@ def reduce(q, qd):
 def constrained_affine(model: Model, point: int, q, qd):
     """(a, b, lam_a, lam_b): qdd = a + b u and ground reaction lambda = lam_a + lam_b u
     (N, in world x and y) with the point held fixed."""
-    M = mass_matrix(model, q)
-    h = bias(model, q, qd)
-    J = point_jacobian(model, q, point)
-    jd = point_jdot_qd(model, q, qd, point)
+    return _affine_from_terms(model, mass_matrix(model, q), bias(model, q, qd), point_jacobian(model, q, point),
+                              point_jdot_qd(model, q, qd, point))
+
+
+def _affine_from_terms(model: Model, M, h, J, jd):
     n = model.nq
     K = jnp.block([[M, -J.T], [J, jnp.zeros((2, 2))]])
     rhs = jnp.concatenate(
@@ -100,8 +101,7 @@ def constrained_affine(model: Model, point: int, q, qd):
 
 def stance_affine(st: Stance, z):
     """(a, b, lam_a, lam_b) in stance coordinates: d(qd_s)/dt = a + b u."""
-    q, qd = embed(st, z)
-    a, b, la, lb = constrained_affine(st.model, st.stance, q, qd)
+    a, b, la, lb = _affine_from_terms(st.model, *pinned_terms(st, z))
     return a[2:], b[2:], la, lb
 
 
