@@ -37,6 +37,33 @@ _created: list = []
 _shared_compile_cache()
 
 
+def _hypothesis_profiles() -> str:
+    """The property tests' draws: on CI (CI set) derandomised, every example a function of the
+    test's own source, so one commit gets one verdict; locally random, with the example
+    database in .hypothesis/ kept between runs, so a failure found once is replayed first
+    until it is fixed. Either way a failure prints the blob that replays it. HYPOTHESIS_PROFILE
+    picks one by name (``ci`` replays CI's draws on a desk)."""
+    from hypothesis import settings
+
+    settings.register_profile("ci", derandomize=True, database=None, print_blob=True)
+    settings.register_profile("dev", print_blob=True)
+    name = os.environ.get("HYPOTHESIS_PROFILE") or ("ci" if os.environ.get("CI") else "dev")
+    settings.load_profile(name)
+    return name
+
+
+_HYPOTHESIS_PROFILE = _hypothesis_profiles()
+
+
+def pytest_report_header(config):
+    if _HYPOTHESIS_PROFILE == "ci":
+        how = "derandomised draws (the same examples on every run of this commit)"
+    else:
+        how = "random draws; failing examples kept in .hypothesis/ and replayed first"
+    return [f"property tests: hypothesis profile '{_HYPOTHESIS_PROFILE}', {how}; a failure prints "
+            "'@reproduce_failure(...)' to replay it, HYPOTHESIS_PROFILE=ci replays CI's draws"]
+
+
 def pytest_unconfigure(config):
     import shutil
 

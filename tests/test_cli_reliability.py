@@ -194,7 +194,7 @@ def _number_text(r: cli.Range):
 
 
 def _numeric_property(n: int):
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(data=st.data())
     def check(data):
         name, opt, action = data.draw(st.sampled_from(RANGED), label="option")
@@ -218,7 +218,7 @@ test_generated_numbers_slow = pytest.mark.slow(_numeric_property(2000))
 
 
 def _text_property(n: int):
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(data=st.data())
     def check(data):
         name, opt, _ = data.draw(st.sampled_from([t for t in TEXTS if t[1] is not None]), label="option")
@@ -245,7 +245,7 @@ def _push_property(n: int):
                       st.text(max_size=5))
     step = st.one_of(st.integers(-5, 200).map(str), st.integers(-(2 ** 70), 2 ** 70).map(str), st.text(max_size=5))
 
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(f=force, k=step, sep=st.sampled_from(["@", "@", "@", "", "@@", " @"]),
            steps=st.one_of(st.none(), st.integers(1, 150)))
     def check(f, k, sep, steps):
@@ -277,7 +277,7 @@ def _model_error_property(n: int):
                      st.sampled_from(["=", "=", "", "=="]),
                      st.one_of(st.floats(-3, 5).map(repr), st.floats(allow_nan=True).map(repr), st.text(max_size=4)))
 
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(items=st.lists(item, min_size=1, max_size=4))
     def check(items):
         if any("\x00" in i for i in items):
@@ -324,7 +324,7 @@ def _argv_property(n: int):
             words.append(draw(st.text(max_size=6)))
         return words
 
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(words=argv())
     def check(words):
         if any("\x00" in w or w.startswith(("-h", "--h")) for w in words):
@@ -392,7 +392,7 @@ def _address_verdict(value: str):
 
 
 def _launch_property(n: int):
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(data=st.data())
     def check(data):
         name = data.draw(st.sampled_from(LAUNCH), label="command")
@@ -457,7 +457,7 @@ FILE_TARGETS = [
 
 
 def _file_property(n: int):
-    @settings(max_examples=n, deadline=None, database=None, suppress_health_check=list(HealthCheck))
+    @settings(max_examples=n, deadline=None, suppress_health_check=list(HealthCheck))
     @given(target=st.sampled_from(FILE_TARGETS), kind=st.sampled_from(
         ["fifo", "directory", "/dev/null", "symlink loop", "dangling symlink", "/dev/zero"]))
     def check(special_files, target, kind):

@@ -118,6 +118,7 @@ def from_dict(d: dict, source: str = "gait", sizes: tuple | None = None, robot: 
         for key in ("eps", "kp", "kd"):  # the controller's gains chosen by the design
             if design.get(key) is not None:
                 schema.number(design, key, source, pre + "design.", GAIN_BOUND, "", low=MIN_GAIN)
+        schema.record_arrays(design, source, pre + "design.")
     vc = VirtualConstraints(jnp.asarray(H0), jnp.asarray(c), jnp.asarray(alpha), jnp.asarray(tp), jnp.asarray(tm))
     return vc, jnp.asarray(z), d
 

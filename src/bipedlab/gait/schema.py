@@ -144,18 +144,30 @@ def _shape_words(shape) -> str:
 
 def _first_bad(v, at: str = ""):
     """(index, problem) of the first entry that keeps a nested list from being a rectangular
-    array of numbers."""
+    array of numbers; every non-rectangular list gets one (rows of equal length whose entries
+    differ in depth or in shape further in, e.g. ``[[[], []], [1, 2]]``, included)."""
     if not isinstance(v, list):
         return at, f"expected a number, got {describe(v)}"
-    if any(isinstance(x, list) for x in v) and not all(isinstance(x, list) for x in v):
-        k = next(i for i, x in enumerate(v) if not isinstance(x, list))
-        return f"{at}[{k}]", f"expected an array like its neighbours, got {describe(v[k])}"
-    for k, x in enumerate(v):
-        if shape_of(x) is None:
-            return _first_bad(x, f"{at}[{k}]")
-    sizes = [len(x) for x in v if isinstance(x, list)]
-    k = next(i for i, n in enumerate(sizes) if n != sizes[0])
-    return f"{at}[{k}]", f"has {sizes[k]} entries where {at}[0] has {sizes[0]} (ragged)"
+    lists = [isinstance(x, list) for x in v]
+    if any(lists) and not all(lists):  # mixed depths: point at the entry unlike most
+        if 2 * sum(lists) >= len(v):
+            k = lists.index(False)
+            return f"{at}[{k}]", f"expected an array like its neighbours, got {describe(v[k])}"
+        k = lists.index(True)
+        return f"{at}[{k}]", f"expected a number like its neighbours, got {describe(v[k])}"
+    shapes = [shape_of(x) for x in v]
+    for k, s in enumerate(shapes):
+        if s is None:
+            return _first_bad(v[k], f"{at}[{k}]")
+    # the entry that differs from the shape most entries share (the first entry's on a tie)
+    common = max(shapes, key=lambda s: (shapes.count(s), -shapes.index(s)))
+    j = shapes.index(common)
+    k = next((i for i, s in enumerate(shapes) if s != common), None)
+    if k is None:  # rectangular after all: nothing in it to point at
+        return at, f"expected an array of numbers, got {describe(v)}"
+    if len(v[k]) != len(v[j]):
+        return f"{at}[{k}]", f"has {len(v[k])} entries where {at}[{j}] has {len(v[j])} (ragged)"
+    return f"{at}[{k}]", f"is {describe(v[k])} where {at}[{j}] is {describe(v[j])} (ragged)"
 
 
 def _fmt(x) -> str:
@@ -271,6 +283,32 @@ def optional_number(d: dict, key: str, source: str, prefix: str = "", bound: flo
     if d.get(key) is None:
         return None
     return number(d, key, source, prefix, bound, unit)
+
+
+def optional_array(d: dict, key: str, source: str, prefix: str = "", shape=(None,), bound: float = math.inf,
+                   unit: str = "") -> np.ndarray | None:
+    """``d[key]`` when present and not null: an array as :func:`array` checks it."""
+    if d.get(key) is None:
+        return None
+    return array(d, key, source, prefix, shape, bound, unit)
+
+
+#: the design record's arrays a gait file carries beside its constraints (read back into walk
+#: records, figures and the report): each checked as an array of its shape when present
+RECORD_ARRAYS = {
+    "peak_torques_nm": ((None,), TORQUE, "N m"),
+    "peak_torques": ((None,), TORQUE, "N m"),
+    "torque_limits_nm": ((None,), TORQUE, "N m"),
+    "poincare_eigenvalues": ((None,), math.inf, ""),
+    "poincare_eigenvalues_complex": ((None, 2), math.inf, ""),
+}
+
+
+def record_arrays(d: dict, source: str, prefix: str = "") -> None:
+    """ValueError naming the field unless every array of :data:`RECORD_ARRAYS` present in the
+    record ``d`` is a finite array of its shape."""
+    for key, (shape, bound, unit) in RECORD_ARRAYS.items():
+        optional_array(d, key, source, prefix, shape, bound, unit)
 
 
 def increasing(values: dict, source: str, prefix: str = "") -> None:

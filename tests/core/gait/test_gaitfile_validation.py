@@ -60,7 +60,7 @@ def test_damaged_gait_files_load_or_fail_on_one_line(valid, folder, data, sized)
 
 
 @pytest.mark.slow
-@settings(max_examples=1500, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
+@settings(max_examples=3000, deadline=None, suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large])
 @given(data=st.data(), sized=st.booleans())
 def test_damaged_gait_files_load_or_fail_on_one_line_many(valid, folder, data, sized):
     _check(folder, data.draw(json_bytes(valid)), SIZES if sized else None)
@@ -69,6 +69,13 @@ def test_damaged_gait_files_load_or_fail_on_one_line_many(valid, folder, data, s
 @settings(max_examples=100, deadline=None)
 @given(raw=st.binary(max_size=200))
 def test_arbitrary_bytes_load_or_fail_on_one_line(folder, raw):
+    _check(folder, raw, None)
+
+
+@pytest.mark.slow
+@settings(max_examples=1000, deadline=None)
+@given(raw=st.binary(max_size=200))
+def test_arbitrary_bytes_load_or_fail_on_one_line_many(folder, raw):
     _check(folder, raw, None)
 
 

@@ -120,7 +120,7 @@ def test_damaged_logs_read_or_fail_on_one_line(texts, folder, data):
 
 
 @pytest.mark.slow
-@settings(max_examples=1500, **SETTINGS)
+@settings(max_examples=3000, **SETTINGS)
 @given(data=st.data())
 def test_damaged_logs_read_or_fail_on_one_line_many(texts, folder, data):
     _check(folder, data.draw(csv_bytes(texts)))

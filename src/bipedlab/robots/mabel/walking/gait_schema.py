@@ -75,6 +75,7 @@ def _design(d: dict, source: str, pre: str) -> None:
     sc.number(des, "period", source, p, MAX_PERIOD, "s", low=MIN_PERIOD)
     sc.number(des, "speed", source, p, MAX_SPEED, "m/s")
     sc.optional_number(des, "step_length", source, p, MAX_STEP, "m")
+    sc.record_arrays(des, source, p)
 
 
 def _poincare(d: dict, source: str, pre: str) -> None:
@@ -82,6 +83,7 @@ def _poincare(d: dict, source: str, pre: str) -> None:
     for key in pc or {}:
         entry = sc.section(pc, key, source, f"{pre}poincare.")
         sc.optional_number(entry, "max_abs_eigenvalue", source, f"{pre}poincare.{key}.")
+        sc.record_arrays(entry, source, f"{pre}poincare.{key}.")
 
 
 def check(d: dict, source: str, pre: str = "payload.") -> None:
