@@ -19,7 +19,7 @@ def _shared_compile_cache() -> None:
     """One persistent JAX compilation cache for the whole run: the test processes (pytest-xdist
     workers) and the commands they start as subprocesses (through BIPEDLAB_CACHE_DIR) compile
     each program once. A fresh folder per run, so no result depends on an earlier run; tests
-    that need their own cache (tests/golden, the CLI tests) still set one."""
+    that need a cold cache of their own set BIPEDLAB_XLA_CACHE_DIR."""
     import tempfile
 
     path = os.environ.get("BIPEDLAB_TEST_XLA_CACHE")
@@ -28,6 +28,10 @@ def _shared_compile_cache() -> None:
         os.environ["BIPEDLAB_TEST_XLA_CACHE"] = path  # inherited by the xdist workers
         _created.append(path)
     os.environ.setdefault("BIPEDLAB_CACHE_DIR", path)
+    # compiled programs are shared even by the tests that keep their results apart (their own
+    # BIPEDLAB_CACHE_DIR: reproduce's stored records); a test that needs a cold compilation
+    # cache sets BIPEDLAB_XLA_CACHE_DIR too
+    os.environ["BIPEDLAB_XLA_CACHE_DIR"] = path
     from bipedlab import compilecache
 
     compilecache.enable(path)

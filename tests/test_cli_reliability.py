@@ -769,7 +769,7 @@ def _cache_ok(cache: pathlib.Path):
                                                         marks=pytest.mark.slow)])
 def test_a_signal_during_compilation_ends_with_one_line_and_no_output(tmp_path, sig, code, line):
     cache, out = tmp_path / "cache", tmp_path / "res"
-    env = dict(os.environ, BIPEDLAB_CACHE_DIR=str(cache))
+    env = dict(os.environ, BIPEDLAB_CACHE_DIR=str(cache), BIPEDLAB_XLA_CACHE_DIR=str(cache))
     got, stdout, lines, dt = _interrupt(_console() + ["walk", "compass-gait", "--steps", "200", "--out", str(out)],
                                         env, sig, "compass gait:", 1.5)
     assert (got, stdout, lines) == (code, "", [line])
@@ -822,7 +822,7 @@ def test_a_signal_while_a_study_walks_then_the_cache_still_serves(tmp_path):
     """The compass-gait study interrupted after compiling, while walking: 130, one line, no
     output; the next run from the same cache compiles nothing broken and prints no warning."""
     cache, out = tmp_path / "cache", tmp_path / "res"
-    env = dict(os.environ, BIPEDLAB_CACHE_DIR=str(cache))
+    env = dict(os.environ, BIPEDLAB_CACHE_DIR=str(cache), BIPEDLAB_XLA_CACHE_DIR=str(cache))
     got, stdout, lines, _ = _interrupt(_console() + ["walk", "compass-gait", "--steps", "10000", "--out", str(out)],
                                        env, signal.SIGINT, "walking 10000 steps", 2.0, timeout=600)
     assert (got, stdout, lines) == (130, "", ["bipedlab: interrupted"])

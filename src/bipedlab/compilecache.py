@@ -4,7 +4,7 @@ A study's first run pays for every program it compiles; :func:`enable` makes eve
 load them instead:
 
 * the persistent compilation cache lives in ``$BIPEDLAB_CACHE_DIR`` (default
-  ``~/.cache/bipedlab/xla``);
+  ``~/.cache/bipedlab/xla``), or in ``$BIPEDLAB_XLA_CACHE_DIR`` when that is set;
 * every program is kept, however short its compilation (JAX's default keeps only those that
   took at least 1 s, so a study's many small programs compiled again on every run);
 * a cache entry is written inside :func:`bipedlab.interrupt.critical`, so an interruption
@@ -22,8 +22,11 @@ from bipedlab import interrupt
 
 
 def cache_dir() -> str:
-    """The folder of the persistent compilation cache."""
-    return os.environ.get("BIPEDLAB_CACHE_DIR") or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab", "xla")
+    """The folder of the persistent compilation cache: ``$BIPEDLAB_XLA_CACHE_DIR`` when set (the
+    compiled programs apart from the stored results, e.g. several result folders sharing one
+    set of programs), else ``$BIPEDLAB_CACHE_DIR``, else ``~/.cache/bipedlab/xla``."""
+    return (os.environ.get("BIPEDLAB_XLA_CACHE_DIR") or os.environ.get("BIPEDLAB_CACHE_DIR")
+            or os.path.join(os.path.expanduser("~"), ".cache", "bipedlab", "xla"))
 
 
 def enable(path: str | None = None) -> str | None:

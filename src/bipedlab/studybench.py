@@ -210,7 +210,7 @@ def _program_figures(compiles: list, sizes: list) -> dict:
 def _one(argv: tuple, cache: str, timeout: float | None) -> dict:
     fd, stats = tempfile.mkstemp(suffix=".json", prefix="bipedlab-studybench-")
     os.close(fd)
-    env = dict(os.environ, BIPEDLAB_CACHE_DIR=cache)
+    env = dict(os.environ, BIPEDLAB_CACHE_DIR=cache, BIPEDLAB_XLA_CACHE_DIR=cache)  # its own programs too
     cmd = [sys.executable, "-m", "bipedlab.studybench", "--child", stats, "--", *argv]
     try:
         p = subprocess.run(cmd, env=env, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True,
