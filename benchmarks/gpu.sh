@@ -18,8 +18,7 @@ py="${PYTHON:-python3}"
 bl() { "$py" -m bipedlab.cli "$@"; }
 
 echo "== device"
-"$py" -c 'import jax; print(jax.devices(), "x64:", jax.config.jax_enable_x64)' 2>/dev/null \
-  || "$py" -c 'import bipedlab, jax; print(jax.devices(), "x64:", jax.config.jax_enable_x64)'
+"$py" -c 'import bipedlab, jax; print(jax.devices(), "float64:", jax.config.jax_enable_x64)'
 command -v nvidia-smi >/dev/null && nvidia-smi --query-gpu=name,memory.total --format=csv,noheader || true
 
 echo "== bench --no-mujoco --batch $BATCH (float64)"
