@@ -85,3 +85,75 @@ def five():
     from bipedlab.robots.five_link import robot as five_link
 
     return five_link.model()
+
+
+# ----- compile profile ---------------------------------------------------------------------
+# BIPEDLAB_TEST_COMPILE_PROFILE=DIR: every test process records, per test, the seconds JAX spent
+# tracing, lowering and compiling (its monitoring events) and the persistent-cache hits, into
+# DIR/compile-<process>.json; the run ends with the modules that compile longest.
+_PROFILE_DIR = os.environ.get("BIPEDLAB_TEST_COMPILE_PROFILE")
+_profile: dict = {}
+_current = {"test": "(collection)"}
+_COMPILE_EVENTS = {"/jax/core/compile/jaxpr_trace_duration": "trace_s",
+                   "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower_s",
+                   "/jax/core/compile/backend_compile_duration": "compile_s"}
+
+
+def _on_duration(event, duration, **kwargs):
+    key = _COMPILE_EVENTS.get(event)
+    if key:
+        row = _profile.setdefault(_current["test"], {})
+        row[key] = row.get(key, 0.0) + duration
+        if key == "compile_s":
+            row["programs"] = row.get("programs", 0) + 1
+
+
+def _on_event(event, **kwargs):
+    if event == "/jax/compilation_cache/cache_hits":
+        row = _profile.setdefault(_current["test"], {})
+        row["cache_hits"] = row.get("cache_hits", 0) + 1
+
+
+if _PROFILE_DIR:
+    jax.monitoring.register_event_duration_secs_listener(_on_duration)
+    jax.monitoring.register_event_listener(_on_event)
+
+
+@pytest.hookimpl(hookwrapper=True)
+def pytest_runtest_protocol(item, nextitem):
+    _current["test"] = item.nodeid
+    yield
+    _current["test"] = "(between tests)"
+
+
+def pytest_sessionfinish(session, exitstatus):
+    if not _PROFILE_DIR:
+        return
+    import json
+
+    os.makedirs(_PROFILE_DIR, exist_ok=True)
+    name = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    with open(os.path.join(_PROFILE_DIR, f"compile-{name}.json"), "w") as f:
+        json.dump(_profile, f, indent=0)
+
+
+def pytest_terminal_summary(terminalreporter, exitstatus, config):
+    if not _PROFILE_DIR or os.environ.get("PYTEST_XDIST_WORKER"):
+        return
+    import glob
+    import json
+
+    modules: dict = {}
+    for path in glob.glob(os.path.join(_PROFILE_DIR, "compile-*.json")):
+        with open(path) as f:
+            for test, row in json.load(f).items():
+                m = modules.setdefault(test.split("::")[0], {})
+                for k, v in row.items():
+                    m[k] = m.get(k, 0) + v
+    total = lambda r: r.get("trace_s", 0) + r.get("lower_s", 0) + r.get("compile_s", 0)  # noqa: E731
+    terminalreporter.write_sep("=", "compile seconds per module (trace + lower + XLA compile, programs, cache hits)")
+    for mod, r in sorted(modules.items(), key=lambda kv: -total(kv[1]))[:40]:
+        terminalreporter.write_line(f"{total(r):8.1f} s  ({r.get('trace_s', 0):6.1f} + {r.get('lower_s', 0):6.1f} + "
+                                    f"{r.get('compile_s', 0):6.1f})  {r.get('programs', 0):5d} programs  "
+                                    f"{r.get('cache_hits', 0):5d} hits  {mod}")
+    terminalreporter.write_line(f"{sum(total(r) for r in modules.values()):8.1f} s  in all")
