@@ -72,17 +72,37 @@ def robot():
     return sl.model()
 
 
+@jax.jit
+def _points(robot, q):
+    return jnp.stack([sl.point_position(robot, q, n) for n in sl.CONTACTS])
+
+
+@jax.jit
+def _project(robot, x, active, anchors):
+    return sc.project(robot, x, active, anchors)[0]
+
+
+@jax.jit
+def _terms(robot, q, qd):
+    """(M, h, P, J, Jd, A) at (q, qd): compiled once, the same values as op by op."""
+    M, h, P, _, J, Jd = sl.dynamics_terms(robot, q, qd)
+    return M, h, P, J, Jd, sc.constraint_jacobian(J, Jd)[0]
+
+
+_kinetic_energy = jax.jit(sl.kinetic_energy)
+
+
 def _stance_state(robot, rng):
     phi = np.deg2rad([10.0, 0.0, 0.0, -20.0, -40.0, 5.0]) + np.deg2rad(3.0) * rng.standard_normal(6)
     phi[1] = 0.0
     q = sl.configuration(np.pi / 2 - 0.05, phi, anchor="heel_1", r=robot)
     qd = jnp.asarray(rng.standard_normal(9))
     active = jnp.array([True, True, False, False, True, False])
-    P = jnp.stack([sl.point_position(robot, q, n) for n in sl.CONTACTS])
+    P = _points(robot, q)
     anchors = P[:, 0]
     x = jnp.concatenate([q, qd])
     for _ in range(4):  # the foot starts tilted by a few degrees: Newton to convergence
-        x, _ = sc.project(robot, x, active, anchors)
+        x = _project(robot, x, active, anchors)
     return x, active, anchors
 
 
@@ -90,10 +110,9 @@ def test_constraint_forces_keep_a_supported_foot_fixed(robot):
     rng = np.random.default_rng(2)
     x, active, anchors = _stance_state(robot, rng)
     u = jnp.asarray(5.0 * rng.standard_normal(6))
-    qdd, lam = sc.solve(robot, x, u, active)
-    M, h, P, V, J, Jd = sl.dynamics_terms(robot, x[:9], x[9:])
+    qdd, lam = jax.jit(sc.solve)(robot, x, u, active)
+    M, h, P, J, Jd, A = _terms(robot, x[:9], x[9:])
     # the constrained equations of motion: M qdd + h = E u + damping + A^T lambda
-    A, _ = sc.constraint_jacobian(J, Jd)
     np.testing.assert_allclose(M @ qdd + h, sl.actuation(u) + sl.damping_force(robot, x[9:]) + A.T @ lam, atol=1e-10)
     # toe and heel of the supported foot do not accelerate; the knee stays on its stop
     for k in (0, 1):
@@ -105,7 +124,7 @@ def test_constraint_forces_keep_a_supported_foot_fixed(robot):
     xs = x
     for _ in range(200):
         xs = step(xs)
-    Pn = np.stack([np.asarray(sl.point_position(robot, xs[:9], n)) for n in sl.CONTACTS[:2]])
+    Pn = np.asarray(_points(robot, xs[:9]))[:2]
     assert np.abs(Pn - P0).max() < 1e-10
     assert float(sc.residual(robot, xs, active, anchors)[0]) < 1e-10
 
@@ -123,12 +142,11 @@ def test_impacts_never_increase_kinetic_energy(robot):
         qd = qd.at[1].add(-1.0)  # moving into the ground
         xe = jnp.concatenate([q, qd])
         x1, imps, act = imp(xe, active, new)
-        ke0 = float(sl.kinetic_energy(robot, q, qd))
-        ke1 = float(sl.kinetic_energy(robot, x1[:9], x1[9:]))
+        ke0 = float(_kinetic_energy(robot, q, qd))
+        ke1 = float(_kinetic_energy(robot, x1[:9], x1[9:]))
         assert ke1 <= ke0 + 1e-12
         # post-impact velocities satisfy the new active constraints
-        M, _, _, _, J, Jd = sl.dynamics_terms(robot, x1[:9], x1[9:])
-        A, _ = sc.constraint_jacobian(J, Jd)
+        A = _terms(robot, x1[:9], x1[9:])[5]
         np.testing.assert_allclose((A @ x1[9:]) * sc.row_mask(act), 0.0, atol=1e-10)
         assert np.all(np.asarray(act)[np.asarray(new)])
         checked += 1
