@@ -444,3 +444,12 @@ def test_a_published_report_reads_in_every_encoding(encoding, tmp_path):
     src = ROOT / "docs" / "report" / check.QUICK_FILE
     (tmp_path / check.QUICK_FILE).write_bytes(ENCODINGS[encoding](src.read_bytes()))
     assert check.load(tmp_path) == check.load(src.parent)
+
+
+def test_the_flags_are_probed_after_the_command_modules_imported_jax(tmp_path):
+    """``walk model`` imports JAX while its options are checked: XLA_FLAGS is still probed
+    before a backend starts (a fresh process: this one has started its backend)."""
+    gait = str(importlib.resources.files("bipedlab.robots.imported") / "data" / "rabbit_0.8.json")
+    r = _bipedlab(["walk", "model", "rabbit.xml", "--gait", gait, "--steps", "1"],
+                  env={"XLA_FLAGS": "--xla_bogus_flag=1"}, cwd=tmp_path)
+    assert r.returncode == 2 and "$XLA_FLAGS" in _one_error_line(r.stderr), r.stderr[-3000:]

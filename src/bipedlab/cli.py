@@ -138,10 +138,10 @@ def _main(argv) -> int:
         try:
             if cmd.before_jax is not None:
                 cmd.before_jax(args)
+            problem = environment.devices_problem()  # after before_jax, which may configure the devices
+            if problem:
+                raise UsageError(f"{cmd.name}: {problem}")
             if cmd.compile_cache:
-                problem = environment.devices_problem()
-                if problem:
-                    raise UsageError(f"{cmd.name}: {problem}")
                 _enable_compile_cache()
             record, summary = cmd.run(args, _progress)
         except UsageError as e:

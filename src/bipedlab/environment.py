@@ -130,9 +130,15 @@ def devices_problem() -> str | None:
     return None
 
 
+def backend_started() -> bool:
+    """Whether this process has started a JAX backend (importing JAX starts none)."""
+    bridge = sys.modules.get("jax._src.xla_bridge")
+    return bool(getattr(bridge, "_backends", None))
+
+
 def check(environ=None, probe: bool = True) -> None:
     """Check the variables above (see the module docstring); UsageError naming the variable.
-    ``probe``: when ``XLA_FLAGS`` is set and JAX not yet imported, start a backend with it in a
+    ``probe``: when ``XLA_FLAGS`` is set and no backend started yet, start one with it in a
     child (:func:`flags_problem`)."""
     env = os.environ if environ is None else environ
     problem = platforms_problem(env.get("JAX_PLATFORMS", ""))
@@ -147,7 +153,7 @@ def check(environ=None, probe: bool = True) -> None:
         problem = cache_dir_problem(cache)
         if problem:
             raise UsageError(f"$BIPEDLAB_CACHE_DIR: {problem}")
-    if probe and flags.strip() and "jax" not in sys.modules:
+    if probe and flags.strip() and not backend_started():
         problem = flags_problem()
         if problem:
             raise UsageError(f"$XLA_FLAGS: {problem}")
