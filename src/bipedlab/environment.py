@@ -8,9 +8,12 @@ raises :class:`bipedlab.commands.UsageError` with one line naming the variable:
 
 * ``JAX_PLATFORMS``: a comma-separated list of platform names JAX knows (:data:`PLATFORMS`);
 * ``XLA_FLAGS``: blank-separated ``--name`` or ``--name=value`` words; when it is set, a forked
-  child starts the backend with it (:func:`backend_problem`), so that a flag XLA does not know,
-  or a platform that cannot start, is reported in one line instead of ending the process;
+  child starts XLA's CPU backend with it (:func:`flags_problem`, about a second), so that a flag
+  XLA does not know is reported in one line instead of ending the process;
 * ``BIPEDLAB_CACHE_DIR``: a folder that is, or can be created, and is writable.
+
+A platform that is known but cannot start here (``cuda`` without a GPU) is found when the
+command starts the backend, before its first compilation (:func:`devices_problem`).
 
 Nothing here imports JAX at module import.
 """
