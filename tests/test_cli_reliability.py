@@ -132,11 +132,16 @@ def _accepted(argv):
     return args
 
 
+_INTEGER = re.compile(r"[+-]?[0-9]+", re.ASCII)
+_NUMBER = re.compile(r"[+-]?([0-9]+(\.[0-9]*)?|\.[0-9]+)([eE][+-]?[0-9]+)?", re.ASCII)
+
+
 def _in_range(r: cli.Range, value: str) -> bool:
-    try:
-        v = int(value) if r.integer else float(value)
-    except (ValueError, TypeError):
+    """Whether value is a numeral of the grammar (sign, ASCII digits, for numbers a point and
+    an exponent) inside the range."""
+    if not isinstance(value, str) or (_INTEGER if r.integer else _NUMBER).fullmatch(value) is None:
         return False
+    v = int(value) if r.integer else float(value)
     return math.isfinite(v) and r.lo <= v <= r.hi
 
 
@@ -256,6 +261,8 @@ def _push_property(n: int):
         args, code, out, err = _parse(argv)
         head, at, tail = value.partition("@")
         try:
+            if not (_NUMBER.fullmatch(head) and _INTEGER.fullmatch(tail)):  # the numeral grammar
+                raise ValueError(value)
             ok_f, ok_k = float(head), int(tail)
             well_formed = at == "@" and math.isfinite(ok_f) and abs(ok_f) <= 1000 and 0 <= ok_k <= 9999
         except ValueError:

@@ -16,9 +16,11 @@ and one line (:mod:`bipedlab.interrupt`), leaving no partial output.
 """
 from __future__ import annotations
 
+import io
+import os
 import sys
 
-from bipedlab import interrupt, outputs
+from bipedlab import environment, interrupt, outputs
 from bipedlab.commands import UsageError, one_line
 from bipedlab.registry import parse
 
@@ -41,10 +43,38 @@ def _enable_compile_cache() -> None:
 
 
 def _emit(record: dict, as_json: bool, summary) -> None:
-    if as_json:
-        print(outputs.dumps_json(record))
-    else:
-        print(summary(record))
+    """Print the record (or its summary) and flush it; OSError when stdout cannot take it."""
+    out = sys.stdout
+    if out is None:
+        raise OSError(9, "standard output is closed")
+    out.write((outputs.dumps_json(record) if as_json else summary(record)) + "\n")
+    out.flush()
+
+
+def stdout_problem(stream=None) -> str | None:
+    """Why the record could not be printed (standard output closed), found before any work;
+    None when it is open."""
+    stream = sys.stdout if stream is None else stream
+    if stream is None:
+        return "standard output is closed"
+    try:
+        fd = stream.fileno()
+    except (AttributeError, ValueError, io.UnsupportedOperation):  # a stream without a descriptor (captured)
+        return None
+    try:
+        os.fstat(fd)
+    except OSError as e:
+        return f"standard output cannot be written: {e.strerror or e}"
+    return None
+
+
+def _drop_stdout() -> None:
+    """After a failed write, point stdout at the null device so that the interpreter's exit
+    does not try (and fail, with a traceback) to flush it again."""
+    try:
+        sys.stdout = open(os.devnull, "w")
+    except OSError:
+        sys.stdout = None
 
 
 def _stage_outputs(parser, args, staging: outputs.Staging) -> None:
@@ -95,12 +125,22 @@ def _main(argv) -> int:
         parser.print_help()
         return 0
     cmd = args._command
+    try:
+        environment.check()
+    except UsageError as e:
+        parser.error(f"{cmd.name}: {e}")
+    closed = stdout_problem()
+    if closed:
+        return _fail(f"{cmd.name}: {closed}: the record would be lost", 1)
     staging = outputs.Staging()
     with interrupt.guard(cleanup=staging.discard):
         _stage_outputs(parser, args, staging)
         try:
             if cmd.before_jax is not None:
                 cmd.before_jax(args)
+            problem = environment.devices_problem()  # after before_jax, which may configure the devices
+            if problem:
+                raise UsageError(f"{cmd.name}: {problem}")
             if cmd.compile_cache:
                 _enable_compile_cache()
             record, summary = cmd.run(args, _progress)
@@ -122,7 +162,11 @@ def _main(argv) -> int:
         except OSError as e:
             staging.discard()
             return _fail(f"{cmd.name}: could not move the outputs into place: {e}", 1)
-    _emit(staging.rename_paths(record), args.json, summary)
+    try:
+        _emit(staging.rename_paths(record), args.json, summary)
+    except OSError as e:  # a full disk or a closed pipe behind stdout
+        _drop_stdout()
+        return _fail(f"{cmd.name}: could not print the record: {e.strerror or e}", 1)
     return int(cmd.exit_status(record)) if cmd.exit_status is not None else 0
 
 

@@ -23,6 +23,7 @@ from __future__ import annotations
 import argparse
 import math
 import os
+import re
 from dataclasses import dataclass
 from typing import Callable, Optional
 
@@ -114,10 +115,32 @@ def one_line(text: str) -> str:
     return "".join(_LINE_BREAKS.get(c, c) for c in str(text))
 
 
+_INTEGER = re.compile(r"[+-]?[0-9]+", re.ASCII)
+_NUMBER = re.compile(r"[+-]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][+-]?[0-9]+)?", re.ASCII)
+NUMERALS = "ASCII digits with an optional sign (numbers also a decimal point and an exponent, e.g. -1.5e-3)"
+"""The one numeral grammar of every numeric option."""
+
+
+def parse_int(text) -> int:
+    """An integer numeral (an optional sign and ASCII digits) as an int; ValueError on anything
+    else (Python's int() also takes '1_0', blanks and other scripts' digits)."""
+    if not isinstance(text, str) or _INTEGER.fullmatch(text) is None:
+        raise ValueError(f"not an integer numeral: {text!r}")
+    return int(text)
+
+
+def parse_float(text) -> float:
+    """A number numeral (an optional sign, ASCII digits, a decimal point, an exponent) as a
+    float; ValueError on anything else ('1_0', 'inf', 'nan', blanks, other scripts' digits)."""
+    if not isinstance(text, str) or _NUMBER.fullmatch(text) is None:
+        raise ValueError(f"not a numeral: {text!r}")
+    return float(text)
+
+
 def positive_int(text: str) -> int:
     """argparse type: an integer > 0."""
     try:
-        v = int(text)
+        v = parse_int(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a positive integer, got {text!r}") from None
     if v <= 0:
@@ -128,7 +151,7 @@ def positive_int(text: str) -> int:
 def _number(text: str, strict: bool) -> float:
     kind = "positive" if strict else "non-negative"
     try:
-        v = float(text)
+        v = parse_float(text)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected a {kind} number, got {text!r}") from None
     if not (math.isfinite(v) and (v > 0 if strict else v >= 0)):
@@ -162,7 +185,7 @@ class Range:
         kind = "an integer" if self.integer else "a number"
         bad = argparse.ArgumentTypeError(f"expected {kind} in {self.text}, got {text!r}")
         try:
-            v = int(text) if self.integer else float(text)
+            v = parse_int(text) if self.integer else parse_float(text)
         except (ValueError, TypeError):
             raise bad from None
         if not (math.isfinite(v) and self.lo <= v <= self.hi):

@@ -85,7 +85,38 @@ def _clean(option: str, path: str) -> str:
     trimmed = path.rstrip(os.sep) or path
     if os.path.basename(trimmed) in ("", ".", ".."):
         raise OutputError(f"{option}: expected a path ending in a name, got {path!r}")
+    problem = length_problem(trimmed)
+    if problem:
+        raise OutputError(f"{option}: {problem}")
     return trimmed
+
+
+def _limit(path: str, name: str, default: int) -> int:
+    """The file system's limit ``name`` (PC_NAME_MAX, PC_PATH_MAX) at the nearest existing
+    folder above ``path``; ``default`` where it cannot be asked."""
+    folder = os.path.dirname(os.path.abspath(path))
+    while folder and not os.path.isdir(folder) and os.path.dirname(folder) != folder:
+        folder = os.path.dirname(folder)
+    try:
+        return int(os.pathconf(folder or os.sep, name))
+    except (OSError, ValueError, AttributeError):
+        return default
+
+
+def length_problem(path: str) -> str | None:
+    """Why the file system cannot take ``path`` for its length (a name over PC_NAME_MAX bytes,
+    or the path, with the staging folder a run adds, over PC_PATH_MAX); None if it can."""
+    name_max = _limit(path, "PC_NAME_MAX", 255)
+    for part in path.split(os.sep):
+        n = len(os.fsencode(part))
+        if n > name_max:
+            shown = part if len(part) <= 40 else part[:20] + "..." + part[-12:]
+            return f"the name {shown!r} is {n} bytes long, more than the {name_max} the file system takes"
+    total = len(os.fsencode(os.path.join(os.path.abspath(path), _stage_name(), "x")))
+    path_max = _limit(path, "PC_PATH_MAX", 4096)
+    if total >= path_max:
+        return f"the path is too long ({total} bytes with the staging folder, the file system takes {path_max - 1})"
+    return None
 
 
 def _why(e: OSError) -> str:
@@ -151,7 +182,11 @@ class Staging:
             self.discard()
             raise
         staged = os.path.join(folder, os.path.basename(final))
-        os.mkdir(staged)
+        try:
+            os.mkdir(staged)
+        except OSError as e:
+            self.discard()
+            raise OutputError(f"{option}: cannot create {path!r}: {_why(e)}") from None
         self.targets.append(_Target(option, final, staged, "dir"))
         return staged
 
@@ -166,6 +201,13 @@ class Staging:
         if os.path.lexists(final) and not os.access(final, os.W_OK):
             raise OutputError(f"{option}: {path!r} is not writable")
         staged = os.path.join(self._folder_for(option, parent), os.path.basename(final))
+        try:  # the name itself must be one the file system takes: create it and take it back
+            with open(staged, "x"):
+                pass
+            os.remove(staged)
+        except OSError as e:
+            self.discard()
+            raise OutputError(f"{option}: cannot write {path!r}: {_why(e)}") from None
         self.targets.append(_Target(option, final, staged, "file"))
         return staged
 

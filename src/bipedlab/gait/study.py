@@ -39,7 +39,7 @@ from bipedlab.gait import walking as gw
 from bipedlab.mechanics.dynamics import total_mass
 from bipedlab.mechanics.stance import Stance
 from bipedlab.outputs import json_safe
-from bipedlab.sim.rollout import STATUS_NAMES
+from bipedlab.sim.rollout import NONFINITE, STATUS_NAMES
 
 #: Solver tolerance (SLSQP ftol) of the designs.
 TOL = 1e-10
@@ -271,7 +271,8 @@ def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: floa
     dur, length = w.duration[ok], w.step_length[ok]
     mg = float(total_mass(st.model) * st.model.gravity)
     dist = float(np.sum(length))
-    dev = np.linalg.norm(w.z_minus - np.asarray(z_star), axis=1)
+    with np.errstate(over="ignore", invalid="ignore"):  # a state that blew up is far, not an error
+        dev = np.linalg.norm(w.z_minus - np.asarray(z_star), axis=1)
     rec = dict(
         robot=study.robot, controller=controller, perturb=perturb, seed=seed,
         fell=bool(n_ok < steps), status=STATUS_NAMES[int(w.status[-1])], steps_completed=n_ok,
@@ -288,7 +289,45 @@ def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: floa
         gait_speed_mps=(meta.get("design") or {}).get("speed_mps"),
         wall_s=wall, eps=pc["eps"], kp=pc["kp"], kd=pc["kd"], stable=pc["stable"],
     )
+    rec["fall_reason"] = fall_reason(vc, st, w, n_ok) if n_ok < steps else None
+    rec["note"] = far_from_gait(rec, (meta.get("design") or {}).get("period_s"))
     return rec, w, z0
+
+
+MAX_TIME = 2.0
+"""Seconds a step may last before the walk counts as fallen (:func:`bipedlab.gait.walking.walk`'s default)."""
+
+
+def fall_reason(vc, st, w, k: int) -> str:
+    """Why step ``k`` (counted from 0) of the walk ``w`` (numpy) is not a step, in words."""
+    n = st.n
+    c = np.asarray(vc.c)
+    phase, mid = float(c @ np.asarray(w.z_plus[k])[:n]), float(gw.arming_phase(vc))
+    where = f"touchdown {k + 1}"
+    if int(w.status[k]) == NONFINITE:
+        return f"{where}: the state became non-finite"
+    if phase > mid:
+        return (f"{where} is spurious: the swing began at phase {phase:.3g}, already past the middle of the step "
+                f"({mid:.3g}) where the touchdown is armed, so the foot came down after {1e3 * float(w.duration[k]):.0f} ms"
+                " without a swing (the robot was thrown out of the gait)")
+    if float(w.duration[k]) >= MAX_TIME - 1e-9:
+        return f"{where}: no touchdown within {MAX_TIME:g} s"
+    return f"{where}: the hip went below the ground or the phase stopped advancing"
+
+
+def far_from_gait(rec: dict, gait_period) -> str | None:
+    """A note when the steps completed look nothing like the gait (a step period under a tenth of
+    the gait's, a cost of transport above 10), saying so; None otherwise."""
+    if not rec["steps_completed"]:
+        return None
+    odd = []
+    if gait_period and rec["step_period_s"] < 0.1 * float(gait_period):
+        odd.append(f"a step period of {rec['step_period_s']:.3g} s, under a tenth of the gait's {float(gait_period):.3g} s")
+    if rec["cmt"] is not None and rec["cmt"] > 10:
+        odd.append(f"a cost of transport c_mt of {rec['cmt']:.3g}")
+    if not odd:
+        return None
+    return "the steps completed are far from the gait (" + "; ".join(odd) + "): averages over a recovery, not a gait"
 
 
 def summary_optimize(r: dict) -> str:
@@ -312,7 +351,7 @@ def _gain_text(r: dict) -> str:
 def summary_walk(r: dict) -> str:
     head = f"walk {r['robot']} ({r['controller']}, perturbation {r['perturb']:g}): "
     head += f"{'FELL after' if r['fell'] else 'completed'} {r['steps_completed']} steps"
-    lines = [head]
+    lines = [head] + [r[k] for k in ("fall_reason", "note") if r.get(k)]
     if r["steps_completed"]:
         lines += [
             f"speed {r['speed_mps']:.4f} m/s, step length {r['step_length_m']:.4f} m, period {r['step_period_s']:.4f} s",

@@ -24,7 +24,7 @@ from bipedlab.mechanics.stance import Stance, embed, impact, stance_affine, swin
 from bipedlab.gait.poincare import central_differences
 from bipedlab.pytree import pytree
 from bipedlab.sim import hybrid
-from bipedlab.sim.rollout import OK
+from bipedlab.sim.rollout import FELL, OK
 
 
 @functools.partial(jax.tree_util.register_dataclass, data_fields=["eps", "kp", "kd"], meta_fields=["kind"])
@@ -91,6 +91,18 @@ class Step:
     status: jax.Array
 
 
+def arming_phase(vc):
+    """The phase (``vc.c @ q``) past which the touchdown is armed: the middle of the step."""
+    return vc.theta_plus + 0.5 * (vc.theta_minus - vc.theta_plus)
+
+
+def armed_at_start(vc, st: Stance, z_plus):
+    """Whether a swing starts with the touchdown already armed (its phase past
+    :func:`arming_phase`): a touchdown ending such a swing is not one the gait's event logic
+    armed (after a large perturbation the foot comes down within milliseconds) and is no step."""
+    return vc.c @ z_plus[..., :st.n] > arming_phase(vc)
+
+
 def transition(vc, st: Stance, ctrl: Controller) -> hybrid.Transition:
     """The touchdown as a :class:`bipedlab.sim.hybrid.Transition`: the stance model in closed
     loop with the controller (the torque is a function of the state: no held input), the swing
@@ -98,7 +110,7 @@ def transition(vc, st: Stance, ctrl: Controller) -> hybrid.Transition:
     the reset, the impact and relabelling, reporting (impulse (2,) N s, step vector (2,) m,
     velocity of the lifting foot (2,) m/s) of :func:`bipedlab.mechanics.stance.impact`."""
     u_of = control_law(vc, st, ctrl)
-    mid = vc.theta_plus + 0.5 * (vc.theta_minus - vc.theta_plus)
+    mid = arming_phase(vc)
 
     def reset(z):
         zp, impulse, vec, lift = impact(st, z)
@@ -113,7 +125,8 @@ def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: f
          min_height: float = 0.0) -> Step:
     """One step from a pre-impact state: impact, relabel, closed-loop flow to the next
     touchdown (:func:`bipedlab.sim.hybrid.flow_until_event` on :func:`transition`, the map of
-    the pre-impact section)."""
+    the pre-impact section). A swing that starts armed (:func:`armed_at_start`) ends as FELL:
+    its touchdown is no step."""
     u_of = control_law(vc, st, ctrl)
     n = st.n
 
@@ -126,8 +139,10 @@ def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: f
 
     r, zp, _ = hybrid.flow_until_event(transition(vc, st, ctrl), z_minus, None, h, max_time, integrand, fell,
                                        section="pre")
+    # a touchdown counts only if the swing crossed the arming phase: one armed from the start is spurious
+    status = jnp.where((r.status == OK) & armed_at_start(vc, st, zp), FELL, r.status)
     return Step(r.z, zp, r.t, swing_position(st, r.z)[0], r.integrals[0], r.integrals[1],
-                r.integrals[2], r.status)
+                r.integrals[2], status)
 
 
 def walk(vc, st: Stance, ctrl: Controller, z_minus, steps: int, h: float = 1e-3,

@@ -19,6 +19,8 @@ import math
 from pathlib import Path
 from typing import Optional
 
+from bipedlab.inputs import TextError, decode_text
+
 QUICK_FILE = "quick.json"
 """The quick run's report.json inside a published report's folder."""
 RTOL = 1e-6
@@ -50,8 +52,8 @@ def load(folder) -> dict:
     if not path.is_file():
         raise CheckError(f"no published quick report at {path} (give the folder of a published report)")
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeDecodeError, json.JSONDecodeError) as e:
+        data = json.loads(decode_text(path.read_bytes()))  # a BOM, CRLF or UTF-16 from an editor too
+    except (OSError, TextError, json.JSONDecodeError) as e:
         raise CheckError(f"{path} is not a report's JSON: {e}") from None
     if not isinstance(data, dict) or not isinstance(data.get("papers"), dict) or not data.get("quick"):
         raise CheckError(f"{path} is not the report.json of a quick reproduction")

@@ -56,6 +56,8 @@ import math
 import re
 from pathlib import Path
 
+from bipedlab.inputs import TextError, decode_text
+
 KINDS = ("rel", "abs", "factor", "at_least", "at_most", "range", "equals", "report")
 DERIVATIONS = ("precision", "spread", "size", "claim", "own_target")
 #: the kinds each derivation may use
@@ -300,8 +302,8 @@ def load(path) -> dict:
     """Read and check one paper-values file."""
     path = Path(path)
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, UnicodeError, json.JSONDecodeError) as e:
+        data = json.loads(decode_text(path.read_bytes()))  # a BOM, CRLF or UTF-16 from an editor too
+    except (OSError, TextError, json.JSONDecodeError) as e:
         raise ValuesError(f"{path}: cannot read paper values: {e}") from None
     return check(data, str(path.name))
 

@@ -18,7 +18,7 @@ Everything the launch reads is checked before any work, options and environment 
 refusal one line naming the option or the variable: integers are ASCII digits within their
 range (``$SLURM_NTASKS`` and ``$JAX_NUM_PROCESSES`` from 1, ``$JAX_PROCESS_ID`` and
 ``$SLURM_PROCID`` below the process count), ``$JAX_LOCAL_DEVICE_IDS`` a comma-separated list of
-them, the coordinator ``HOST:PORT`` with PORT in [1, 65535] (HOST a name, an IPv4 address or
+them (checked in a single-process run too), the coordinator ``HOST:PORT`` with PORT in [1, 65535] (HOST a name, an IPv4 address or
 a bracketed IPv6 one), and a SLURM job (``SLURM_NTASKS`` > 1) must also set the variables JAX
 reads it from. A process that cannot join within ``--init-timeout`` (process 0: the others
 did not connect; the others: no coordinator answered) ends with status 2 and one line.
@@ -47,7 +47,7 @@ from typing import Callable
 from bipedlab.commands import SEED, Command, UsageError, add_out, int_in, one_line
 from bipedlab.outputs import final_path
 
-TRIALS = int_in(1, 10_000_000)
+TRIALS = int_in(1, 100_000)
 PROCESSES = int_in(1, 65_536)
 PROCESS_ID = int_in(0, 65_535)
 INIT_TIMEOUT = 60
@@ -169,8 +169,7 @@ def validate(args) -> None:
             _check_slurm_job(tasks)
             args.slurm = True
     n = args.num_processes
-    if args.slurm or (n or 1) > 1:
-        _check_device_ids()
+    _check_device_ids()  # JAX reads it in a single process too
     if n is not None and n > 1:
         if args.coordinator is None:
             raise UsageError("--num-processes > 1 needs --coordinator HOST:PORT (or $JAX_COORDINATOR_ADDRESS)")

@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import math
 
-from bipedlab.commands import SEED, Command, UsageError, add_out, float_in, int_in
+from bipedlab.commands import SEED, Command, UsageError, add_out, float_in, int_in, parse_float
 from bipedlab.robots.atrias import catalog
 
 MODEL_ERRORS = catalog.MODEL_ERRORS
@@ -19,7 +19,7 @@ def model_error_value(value: str) -> tuple:
         raise argparse.ArgumentTypeError(f"expected NAME=REL with NAME one of {', '.join(MODEL_ERRORS)}, "
                                          f"got {value!r}")
     try:
-        r = float(rel)
+        r = parse_float(rel)
     except ValueError:
         r = math.nan
     if not (math.isfinite(r) and MODEL_ERROR.lo <= r <= MODEL_ERROR.hi):

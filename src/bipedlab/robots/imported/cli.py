@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import os
 
+from bipedlab.inputs import model_text
 from bipedlab.commands import SEED, Command, UsageError, add_save, float_in, int_in, text
 
 ROBOT = "model"
@@ -27,8 +28,11 @@ def _file(p) -> None:
 def _check_file(args) -> None:
     from bipedlab.robots.imported.study import EXAMPLES
 
-    if not os.path.isfile(args.file) and args.file not in EXAMPLES:
-        raise UsageError(f"{args.file}: no such file")
+    if not (args.file in EXAMPLES and not os.path.lexists(args.file)):  # not a shipped example
+        try:
+            model_text(args.file)  # a regular text file, no xacro macro, every number finite
+        except ValueError as e:
+            raise UsageError(str(e)) from None
 
 
 def _study(fn, *a, **k):

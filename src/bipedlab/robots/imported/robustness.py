@@ -12,6 +12,7 @@ from __future__ import annotations
 
 import os
 
+from bipedlab.inputs import model_text
 from bipedlab.commands import UsageError, float_in, int_in, text
 from bipedlab.robustness import options
 
@@ -91,8 +92,11 @@ def _options(p) -> None:
 def _check(args) -> None:
     from bipedlab.robots.imported.study import EXAMPLES
 
-    if not os.path.isfile(args.file) and args.file not in EXAMPLES:
-        raise UsageError(f"{args.file}: no such file")
+    if not (args.file in EXAMPLES and not os.path.lexists(args.file)):  # not a shipped example
+        try:
+            model_text(args.file)  # a regular text file, no xacro macro, every number finite
+        except ValueError as e:
+            raise UsageError(str(e)) from None
     if not os.path.isfile(args.gait):
         raise UsageError(f"--gait: {args.gait!r} is not a file")
 

@@ -7,7 +7,7 @@ import argparse
 import math
 import os
 
-from bipedlab.commands import SEED, Command, UsageError, add_out, add_save, float_in, int_in, text
+from bipedlab.commands import SEED, Command, UsageError, add_out, add_save, float_in, int_in, parse_float, parse_int, text
 from bipedlab.robots.mabel.walking import catalog
 
 ROBOT = "mabel"
@@ -28,7 +28,7 @@ def push_value(value: str) -> tuple:
     """argparse type of --push: 'FORCE@STEP' -> (force in N, step index)."""
     force, sep, step = value.partition("@")
     try:
-        f, k = float(force), int(step)
+        f, k = parse_float(force), parse_int(step)
     except ValueError:
         raise argparse.ArgumentTypeError(f"expected FORCE@STEP (e.g. 78@10, or --push=-71@30 for a backward push), got {value!r}") from None
     if not sep or not (math.isfinite(f) and abs(f) <= PUSH_FORCE) or not 0 <= k <= STEPS.hi - 1:

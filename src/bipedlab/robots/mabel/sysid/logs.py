@@ -69,7 +69,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.inputs import special_kind
+from bipedlab.inputs import TextError, decode_text, special_kind
 from bipedlab.robots.mabel import tables as tb
 
 KINDS = ("bias", "transmission", "leg", "spring", "balance", "hopping")
@@ -262,13 +262,11 @@ def read_log(path) -> Experiment:
     if kind is not None:
         _fail(path, f"cannot be read ({kind}, not a regular file)")
     try:
-        text = path.read_text(encoding="utf-8")
-    except UnicodeDecodeError as e:
-        _fail(path, f"cannot be read (not UTF-8 text: byte 0x{e.object[e.start]:02x} at offset {e.start})")
+        text = decode_text(path.read_bytes())
+    except TextError as e:
+        _fail(path, f"cannot be read: it {e}")
     except OSError as e:
         _fail(path, f"cannot be read ({e.strerror or e.__class__.__name__})")
-    if "\0" in text:
-        _fail(path, "cannot be read (a NUL byte: not a text file)")
     lines = text.splitlines()
     meta, i = {}, 0
     while i < len(lines) and lines[i].startswith("#"):
