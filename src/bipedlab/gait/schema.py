@@ -30,7 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.inputs import special_kind
+from bipedlab.inputs import TextError, decode_text, special_kind
 
 #: largest gait file read (bytes); gait files are a few kB
 MAX_BYTES = 16 * 2**20
@@ -86,10 +86,10 @@ def read_json(path, unreadable: str = "cannot read"):
         raw = p.read_bytes()
     except OSError as e:
         fail(str(path), "", f"{unreadable} ({e.strerror or e.__class__.__name__})")
-    try:
-        text = raw.decode("utf-8-sig")
-    except UnicodeDecodeError as e:
-        fail(str(path), "", f"not UTF-8 text (byte 0x{raw[e.start]:02x} at offset {e.start})")
+    try:  # UTF-8, or UTF-8 / UTF-16 / UTF-32 after the byte-order mark that names it
+        text = decode_text(raw)
+    except TextError as e:
+        fail(str(path), "", str(e).removeprefix("is "))
     return parse(text, str(path))
 
 

@@ -135,8 +135,9 @@ def test_each_kind_of_bad_field_is_named(valid, tmp_path, case):
     (b"[" * 100_000 + b"]" * 100_000, "nested 100000 levels deep"),
     (b'{"a":' * 40 + b"1" + b"}" * 40, "nested 40 levels deep"),
     (b'{"format": "bipedlab-gait/2", "robot": "r\xe9", "kind": "hzd"}', "not UTF-8 text (byte 0xe9"),
-    (b"\x00\x01\x02", "not valid JSON"),
-    (b"", "not valid JSON"),
+    (b"\x00\x01\x02", "holds a NUL byte: not a text file"),
+    (b"", "empty (0 bytes)"),
+    ('{"format": "bipedlab-gait/2", "robot": "r", "kind": "hzd"}'.encode("utf-16"), "payload: missing"),  # BOM
     (b"[1, 2]", "not a bipedlab gait file (the top level is an array of 2 numbers, not an object)"),
     (b'{"format": "bipedlab-gait/2", "robot": "r", "kind": "hzd", "payload": [1]}',
      "payload: expected an object, got an array of 1 numbers"),
