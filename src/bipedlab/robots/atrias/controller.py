@@ -13,6 +13,12 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
 - the compensated reference (whose algebra the paper omits) keeps g_a* and moves only the
   trunk reference, to the minimiser of w_theta (th - th*)^2 + w_phi (phi - pi)^2 on the
   reachable set of the conserved momentum (:func:`running_model.compensated_reference`);
+- eq. (7)'s virtual leg l_v points to the COM from the spring-mass model's foot point, fixed
+  for the stance (the foot's height at touchdown, its x where it stopped sliding;
+  :func:`stance_leg`), not from the real foot: the paper derives the stance control for a
+  stationary foot (III-A), and a spring measured from a foot that sinks into the damped ground
+  is no longer conservative (flat ground, paper's controller: apex energy -53 -> -2 J, steady
+  speed error -22 -> -8 cm/s, apex height +1.8 -> +3.8 cm);
 - stiffness modulation f = k0 (l0 - l_v) - c dE (l0 - l_v) l_v' (the paper's k = k0 + c dE l_v
   read with the leg-length rate so the extra work -c dE int (l0 - l_v) l_v'^2 dt opposes dE);
   c is set so that the nominal stance would remove ``energy_gain`` of dE; dE adds
@@ -130,6 +136,7 @@ class CtrlState:
     n_stance: jax.Array   # controller samples since touchdown
     y_td: jax.Array       # sensed foot height at the last touchdown (the ground estimate)
     a_trim: jax.Array     # integral landing-angle trim (rad), see :func:`control`
+    x_st: jax.Array       # sensed x of the stance foot: followed while it slides, held in stance
 
 
 @pytree
@@ -144,7 +151,7 @@ def init_state(cp: CtrlParams, leg: int = 0) -> CtrlState:
     i32 = lambda v: jnp.asarray(v, jnp.int32)
     f64 = lambda v: jnp.asarray(v, jnp.float64)
     return CtrlState(i32(FLIGHT), i32(leg), f64(0.0), f64(cp.speed), f64(0.0), f64(0.0), f64(cp.smm.l0), jnp.asarray(False), i32(0),
-                      f64(0.0), f64(0.0))
+                      f64(0.0), f64(0.0), f64(0.0))
 
 
 def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=1.05,
@@ -169,8 +176,8 @@ def paper_controller(cp: CtrlParams) -> CtrlParams:
 
     What stays is this model's reading of the paper where it is silent or, in these
     coordinates, printed with the other sign (the module's list above): the exact landing
-    geometry, the compensated reference, the stiffness modulation read with the leg-length
-    rate, the pitch feedback's sign, the sliding test, the swing-leg length and the lift-off
+    geometry, the compensated reference, the virtual leg from the stance's fixed foot point,
+    the stiffness modulation read with the leg-length rate, the pitch feedback's sign, the sliding test, the swing-leg length and the lift-off
     energy of the whole robot's COM."""
     return cp.replace(ki_energy=0.0, ki_angle=0.0, c_min=0.0, t_stance_min=0.0)
 
@@ -285,13 +292,29 @@ def flight_command(cp, cs, q, qd):
     return jnp.concatenate([tau, F]), alpha
 
 
+def stance_leg(cp, cs, q6, qd6):
+    """Eq. (7)'s virtual leg: from the spring-mass model's foot point (x_st, y_td) to the COM,
+    with its length and rate (r (2,), l_v, l_v').
+
+    The spring-mass model's foot is a fixed point (III-A: the stationary foot), and the virtual
+    spring is conservative about it: the COM's translational energy plus k0 (l_rest - l_v)^2 / 2
+    is constant whatever the real foot does. The point is the sensed foot height at touchdown
+    and the foot's x where it stopped sliding (while it still slides, mode not STANCE, the
+    foot's x and x-rate). Measured from the real foot instead, the spring follows the foot as
+    it sinks into the damped ground (1.4 cm over a stance on flat ground, at up to 0.17 m/s
+    under 3.4 kN) and creeps on the stiction spring: the work the ground absorbs there (about
+    40 J a stance) left the COM unreplaced, the lift-off energy sat 53 J below the target under
+    the proportional energy feedback and the steady speed 22 cm/s below it."""
+    vfoot = rm.jac6(cp.mp, q6) @ qd6
+    r = q6[:2] - jnp.array([cs.x_st, cs.y_td])
+    lv = jnp.linalg.norm(r)
+    v_pt = jnp.array([jnp.where(cs.mode == STANCE, 0.0, vfoot[0]), 0.0])
+    return r, lv, jnp.dot(r, qd6[:2] - v_pt) / lv
+
+
 def _spring_force(cp, cs, q6, qd6):
     """Eq. (7) with the stiffness modulation: target GRF (2,) and l_v."""
-    r = rm.virtual_leg(cp.mp, q6)
-    lv = jnp.linalg.norm(r)
-    J = rm.jac6(cp.mp, q6)
-    # l_v' = rate of the foot-to-COM distance (COM velocity relative to the foot, along r)
-    lvd = jnp.dot(r, qd6[:2] - J @ qd6) / lv
+    r, lv, lvd = stance_leg(cp, cs, q6, qd6)
     # the spring acts on the delay-predicted length: a spring lagging by tau does the extra work
     # k0 tau int l_v'^2 dt (about 90 J per stance at 10 ms), which no modulation can remove
     dl = cs.l_rest - (lv + cp.delay * lvd)
@@ -392,7 +415,9 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     compressed = jnp.where(to_slide, False, cs.compressed | ((mode != FLIGHT) & (lv_td < cs.l_rest - cp.c_min)))
     n_stance = jnp.where(to_slide, 0, cs.n_stance + (mode != FLIGHT).astype(cs.n_stance.dtype))
     y_td = jnp.where(to_slide, foot_ya, cs.y_td)
-    cs = cs.replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td)
+    foot_xa = q[0] - cp.mp.d * jnp.sin(q[2]) + q[5] * jnp.sin(q[3])
+    x_st = jnp.where(mode == STANCE, cs.x_st, foot_xa)
+    cs = cs.replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td, x_st=x_st)
     st = stance_command(cp, cs, q, qd)
     u_st, F_st, lv, lvd, _ = st
     J = rm.jac6(cp.mp, q[:6])
@@ -414,7 +439,7 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     yg = jnp.where(mode != FLIGHT, foot_ya, cs.y_ground)
     new_leg = jnp.where(to_flight, 1 - leg, leg)
     mode = jnp.where(to_flight, FLIGHT, mode)
-    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance, y_td, cs.a_trim)
+    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance, y_td, cs.a_trim, x_st)
 
     # --- commands (in the local order of the current leg assignment)
     qp, qdp = predict_flight(cp, q, qd)
@@ -423,5 +448,5 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     u_loc = jnp.where(mode == FLIGHT, u_fl, jnp.where(mode == SLIDING, u_sl, u_st))
     u_loc = u_loc.at[:2].set(jnp.clip(u_loc[:2], -cp.tau_max, cp.tau_max))
     u = jnp.where(leg == 0, u_loc, u_loc[jnp.array([1, 0, 3, 2])])
-    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance, y_td, a_trim)
+    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance, y_td, a_trim, x_st)
     return cs_new, u, alpha
