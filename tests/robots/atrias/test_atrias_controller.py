@@ -220,3 +220,32 @@ def test_stance_spring_is_conservative_about_the_touchdown_point_when_the_foot_s
     assert 0.09 < t < 0.15 and abs(de) < 0.2
     de_foot, _ = stance(True)
     assert de_foot < -10.0
+
+
+def test_flight_feedforward_makes_the_reduced_system_follow_the_landing_reference():
+    """III-C's u = u-dagger - K (x_r - x_r-dagger): u-dagger gives the reduced system (A_r, B_r)
+    the reference's own acceleration (theta-dagger'' = 0, the landing hip angle's second
+    derivative along a*(t), here by central differences), so started on the reference it stays
+    there; without it the LQR lags the accelerating reference."""
+    from bipedlab.control import slip
+    from bipedlab.robots.atrias import controller as rc
+    _, cp, _, _ = ra.build(ra.Settings(controller="paper"))
+    theta, K = np.deg2rad(10.0), np.asarray(cp.K)
+    A, B = rm.flight_reduced_system(float(cp.mp.I_t), float(cp.mp.I_m))
+    gam = lambda t: float(rc.landing_hip_angle(cp, theta, slip.policy_angle(cp.policy, t)))
+    t0, h = 0.5 * (cp.policy.t_min + cp.policy.t_max), 1e-4
+    gdd = (gam(t0 + h) - 2 * gam(t0) + gam(t0 - h)) / h ** 2
+    uff = jax.jit(lambda t: rc.flight_feedforward(cp, theta, t, 0.0))
+    u = np.asarray(uff(t0))
+    np.testing.assert_allclose(B @ u, [0.0, 0.0, 0.0, gdd], atol=1e-3 * abs(gdd) + 1e-9)
+
+    def track(feedforward, t_end=0.03, dt=1e-4):
+        ref = lambda t: np.array([theta, gam(t), 0.0, (gam(t + h) - gam(t - h)) / (2 * h)])
+        x, t = ref(t0), t0
+        while t < t0 + t_end:
+            u = np.asarray(uff(t)) if feedforward else 0.0
+            x = x + dt * (A @ x + B @ (u - K @ (x - ref(t))))
+            t += dt
+        return abs(x[1] - ref(t)[1])
+
+    assert track(True) < 0.1 * track(False)
