@@ -13,6 +13,15 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
 - the compensated reference (whose algebra the paper omits) keeps g_a* and moves only the
   trunk reference, to the minimiser of w_theta (th - th*)^2 + w_phi (phi - pi)^2 on the
   reachable set of the conserved momentum (:func:`running_model.compensated_reference`);
+- the flight law's feedforward u-dagger (u = u-dagger - K (x_r - x_r-dagger), algebra omitted by
+  the paper) is the input giving the reduced system the reference's own acceleration
+  (:func:`flight_feedforward`); without it the leg landed 0.39 deg behind g_a*;
+- eq. (7)'s virtual leg l_v points to the COM from the spring-mass model's foot point, fixed
+  for the stance (the foot's height at touchdown, its x where it stopped sliding;
+  :func:`stance_leg`), not from the real foot: the paper derives the stance control for a
+  stationary foot (III-A), and a spring measured from a foot that sinks into the damped ground
+  is no longer conservative (flat ground, paper's controller: apex energy -53 -> -2 J, steady
+  speed error -22 -> -8 cm/s, apex height +1.8 -> +3.8 cm);
 - stiffness modulation f = k0 (l0 - l_v) - c dE (l0 - l_v) l_v' (the paper's k = k0 + c dE l_v
   read with the leg-length rate so the extra work -c dE int (l0 - l_v) l_v'^2 dt opposes dE);
   c is set so that the nominal stance would remove ``energy_gain`` of dE; dE adds
@@ -130,6 +139,7 @@ class CtrlState:
     n_stance: jax.Array   # controller samples since touchdown
     y_td: jax.Array       # sensed foot height at the last touchdown (the ground estimate)
     a_trim: jax.Array     # integral landing-angle trim (rad), see :func:`control`
+    x_st: jax.Array       # sensed x of the stance foot: followed while it slides, held in stance
 
 
 @pytree
@@ -144,7 +154,7 @@ def init_state(cp: CtrlParams, leg: int = 0) -> CtrlState:
     i32 = lambda v: jnp.asarray(v, jnp.int32)
     f64 = lambda v: jnp.asarray(v, jnp.float64)
     return CtrlState(i32(FLIGHT), i32(leg), f64(0.0), f64(cp.speed), f64(0.0), f64(0.0), f64(cp.smm.l0), jnp.asarray(False), i32(0),
-                      f64(0.0), f64(0.0))
+                      f64(0.0), f64(0.0), f64(0.0))
 
 
 def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=1.05,
@@ -169,8 +179,8 @@ def paper_controller(cp: CtrlParams) -> CtrlParams:
 
     What stays is this model's reading of the paper where it is silent or, in these
     coordinates, printed with the other sign (the module's list above): the exact landing
-    geometry, the compensated reference, the stiffness modulation read with the leg-length
-    rate, the pitch feedback's sign, the sliding test, the swing-leg length and the lift-off
+    geometry, the compensated reference and its feedforward, the virtual leg from the stance's fixed foot point,
+    the stiffness modulation read with the leg-length rate, the pitch feedback's sign, the sliding test, the swing-leg length and the lift-off
     energy of the whole robot's COM."""
     return cp.replace(ki_energy=0.0, ki_angle=0.0, c_min=0.0, t_stance_min=0.0)
 
@@ -261,6 +271,21 @@ def _tuck_length(cp, q, y_ground, gamma):
     return jnp.clip(l, cp.l_min, 1.0)
 
 
+def flight_feedforward(cp, theta, t, a_trim):
+    """The feedforward u-dagger of the flight law u = u-dagger - K (x_r - x_r-dagger) (III-C;
+    the paper omits its algebra): the input under which the reduced system (A_r, B_r) follows
+    its reference exactly, B_r u-dagger = (theta-dagger'', g_a*''). theta-dagger' is constant
+    in flight (the momentum is), so tau_b = -tau_a and tau_a = I_m g_a*'' with g_a*'' the second
+    time derivative of the landing hip angle along the policy a*(t) (t the time since apex) at
+    the current pitch. Without it the LQR tracked the accelerating reference with a lag: the
+    leg landed 0.39 deg behind g_a* (0.23 deg with it), a flatter landing angle that raises the
+    coming apex (flat ground, paper's controller: apex +3.8 -> +3.2 cm, speed -8.1 -> -7.0 cm/s
+    over 6 s)."""
+    h = lambda tt: landing_hip_angle(cp, theta, slip.policy_angle(cp.policy, tt) + a_trim)
+    tau_a = cp.mp.I_m * jax.grad(jax.grad(h))(t)
+    return jnp.stack([tau_a, -tau_a])
+
+
 def flight_command(cp, cs, q, qd):
     """Flight (III-C, III-F) in local coordinates: (tau_a, tau_b, F_a, F_b) and the target
     landing angle/hip angle for logging."""
@@ -274,7 +299,7 @@ def flight_command(cp, cs, q, qd):
     th_dag, thd_dag = rm.compensated_reference(mp, cp.theta_star, C, H, cp.w_theta, cp.w_phi)
     xr = jnp.array([q[2], q[3], qd[2], qd[3]])
     xr_dag = jnp.array([th_dag, ga_star, thd_dag, dga])
-    tau = -cp.K @ (xr - xr_dag)
+    tau = flight_feedforward(cp, q[2], t, cs.a_trim) - cp.K @ (xr - xr_dag)
     # leg lengths: the landing leg blends from tucked to landing length after apex
     l_land = landing_length(cp, q[2], ga_star)
     err = jnp.abs(ga_star - q[3])
@@ -285,13 +310,29 @@ def flight_command(cp, cs, q, qd):
     return jnp.concatenate([tau, F]), alpha
 
 
+def stance_leg(cp, cs, q6, qd6):
+    """Eq. (7)'s virtual leg: from the spring-mass model's foot point (x_st, y_td) to the COM,
+    with its length and rate (r (2,), l_v, l_v').
+
+    The spring-mass model's foot is a fixed point (III-A: the stationary foot), and the virtual
+    spring is conservative about it: the COM's translational energy plus k0 (l_rest - l_v)^2 / 2
+    is constant whatever the real foot does. The point is the sensed foot height at touchdown
+    and the foot's x where it stopped sliding (while it still slides, mode not STANCE, the
+    foot's x and x-rate). Measured from the real foot instead, the spring follows the foot as
+    it sinks into the damped ground (1.4 cm over a stance on flat ground, at up to 0.17 m/s
+    under 3.4 kN) and creeps on the stiction spring: the work the ground absorbs there (about
+    40 J a stance) left the COM unreplaced, the lift-off energy sat 53 J below the target under
+    the proportional energy feedback and the steady speed 22 cm/s below it."""
+    vfoot = rm.jac6(cp.mp, q6) @ qd6
+    r = q6[:2] - jnp.array([cs.x_st, cs.y_td])
+    lv = jnp.linalg.norm(r)
+    v_pt = jnp.array([jnp.where(cs.mode == STANCE, 0.0, vfoot[0]), 0.0])
+    return r, lv, jnp.dot(r, qd6[:2] - v_pt) / lv
+
+
 def _spring_force(cp, cs, q6, qd6):
     """Eq. (7) with the stiffness modulation: target GRF (2,) and l_v."""
-    r = rm.virtual_leg(cp.mp, q6)
-    lv = jnp.linalg.norm(r)
-    J = rm.jac6(cp.mp, q6)
-    # l_v' = rate of the foot-to-COM distance (COM velocity relative to the foot, along r)
-    lvd = jnp.dot(r, qd6[:2] - J @ qd6) / lv
+    r, lv, lvd = stance_leg(cp, cs, q6, qd6)
     # the spring acts on the delay-predicted length: a spring lagging by tau does the extra work
     # k0 tau int l_v'^2 dt (about 90 J per stance at 10 ms), which no modulation can remove
     dl = cs.l_rest - (lv + cp.delay * lvd)
@@ -392,7 +433,9 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     compressed = jnp.where(to_slide, False, cs.compressed | ((mode != FLIGHT) & (lv_td < cs.l_rest - cp.c_min)))
     n_stance = jnp.where(to_slide, 0, cs.n_stance + (mode != FLIGHT).astype(cs.n_stance.dtype))
     y_td = jnp.where(to_slide, foot_ya, cs.y_td)
-    cs = cs.replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td)
+    foot_xa = q[0] - cp.mp.d * jnp.sin(q[2]) + q[5] * jnp.sin(q[3])
+    x_st = jnp.where(mode == STANCE, cs.x_st, foot_xa)
+    cs = cs.replace(l_rest=l_rest, compressed=compressed, n_stance=n_stance, y_td=y_td, x_st=x_st)
     st = stance_command(cp, cs, q, qd)
     u_st, F_st, lv, lvd, _ = st
     J = rm.jac6(cp.mp, q[:6])
@@ -414,7 +457,7 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     yg = jnp.where(mode != FLIGHT, foot_ya, cs.y_ground)
     new_leg = jnp.where(to_flight, 1 - leg, leg)
     mode = jnp.where(to_flight, FLIGHT, mode)
-    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance, y_td, cs.a_trim)
+    cs_cmd = CtrlState(mode, leg, cs.dE, cs.xa, yg, cs.e_int, l_rest, compressed, n_stance, y_td, cs.a_trim, x_st)
 
     # --- commands (in the local order of the current leg assignment)
     qp, qdp = predict_flight(cp, q, qd)
@@ -423,5 +466,5 @@ def control(cp: CtrlParams, cs: CtrlState, meas: Meas):
     u_loc = jnp.where(mode == FLIGHT, u_fl, jnp.where(mode == SLIDING, u_sl, u_st))
     u_loc = u_loc.at[:2].set(jnp.clip(u_loc[:2], -cp.tau_max, cp.tau_max))
     u = jnp.where(leg == 0, u_loc, u_loc[jnp.array([1, 0, 3, 2])])
-    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance, y_td, a_trim)
+    cs_new = CtrlState(mode, new_leg, dE, xa, yg, e_int, l_rest, compressed, n_stance, y_td, a_trim, x_st)
     return cs_new, u, alpha
