@@ -125,11 +125,12 @@ def tuned_gains(knee_lock_torque: float = 0.0) -> Gains:
     (six numbers: the swing thigh damping is changed in S2 and S3 alike). Used with the
     unilateral check of :func:`policy` (``make_params(..., unilateral_check=True)``).
 
-    With Table II the planar model walks, but at about twice the paper's speed (about 1.05
-    m/s, 0.76 m steps, 1.39 Hz): the hardware lost energy turning its feet on a 1.6 m circle
-    and dragging a boom, which the planar model does not (with the unilateral check, whose
-    contacts no longer chatter and dissipate energy in toe re-impacts, Table II gains even
-    more speed and falls after a few steps). Following Section III-A3 (the stance thigh
+    With Table II and without the unilateral check the planar model walked, but at about
+    twice the paper's speed (about 1.05 m/s, 0.76 m steps, 1.39 Hz), its chattering contacts
+    dissipating energy in toe re-impacts; with the check (no chatter) Table II falls on the
+    planar model after 1 touchdown and walks on the boom setup (0.89 m/s,
+    :mod:`bipedlab.robots.seven_link.setup`), whose foot turning and boom the planar model
+    lacks. Following Section III-A3 (the stance thigh
     couple drives hip extension and so the energy entering each step; the push-off ankle
     stiffness delivers the push-off energy; the swing thigh couple shapes the swing):
 
