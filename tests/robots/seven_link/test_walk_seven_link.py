@@ -95,10 +95,12 @@ def test_low_gain_pd_fig7():
 
 @pytest.mark.slow
 def test_thirty_steps_tuned_and_paper():
+    # Table II on the planar model, with the unilateral check (no contact chatter), falls: it
+    # walked (1.06 m/s) only through the chatter's losses; it walks on the boom setup
+    # (test_seven_link_contact_sequence)
     paper = w.walk(30, "paper")
-    assert not paper["fell"] and paper["steps_completed"] == 30
+    assert paper["fell"] and paper["steps_completed"] < 30 and paper["unilateral_check"]
     assert paper["max_constraint_drift"]["position_after_projection_m"] < 1e-8
-    assert not paper["unilateral_check"]
     tuned = w.walk(30, "tuned")
     assert not tuned["fell"] and tuned["steps_completed"] == 30 and tuned["unilateral_check"]
     drift = tuned["max_constraint_drift"]

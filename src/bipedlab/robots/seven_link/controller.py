@@ -28,7 +28,15 @@
    and the contact flickers at the sample rate (about 70 make/release events per step, each
    toe re-impact dissipating energy, with torque spikes); likewise the knee stops.
 4. As in the experiment (Fig. 8 caption), a small constant torque presses a locked knee
-   into its stop while its leg is in S1, so the knee unlocks only past that threshold.
+   into its stop while its leg is in S1, so the knee unlocks only past that threshold. The
+   controller reads a stance (S1) knee as locked while it is within
+   :data:`STANCE_KNEE_LATCH_DEG` of its stop (``Params.stance_knee_latch``, on with the lock
+   torque, i.e. on the boom setup): its stop row stays in A and the lock torque on. Read exactly (``phi_knee = 0``), the stance knee of Table II
+   on the boom setup was lost at the first swing knee lock (0.384 s): the swing knee's impact
+   lifts the stance knee 0.001 deg off its stop (below the knee encoder's 7.3e-3 deg), the
+   controller read it as unlocked, the lock torque went off and eq. 7 with the knee free
+   asked -4.5 N m of it, so it flexed to 30 deg by 0.61 s and the robot fell after 2
+   touchdowns (with the latch the knee is back on its stop 1 ms later).
 
 Sensing (Section V-A, optional): joint encoders quantised to 4.2e-3 deg (hip, ankle) and
 7.3e-3 deg (knee); the body angle from the kinematics of the contact points when at least
@@ -62,6 +70,14 @@ C0 = np.array([0.0, 0.0, 0.0, np.pi / 2, 0.0, 0.0, np.pi / 2])
 PINV_RTOL = 1e-10
 #: Elements the unilateral check of :func:`policy` may leave out of A per sample.
 UNILATERAL_ITERATIONS = 2
+#: A stance (S1) knee within this angle of its stop reads as locked (the Fig. 8 lock torque's
+#: threshold; :func:`make_params`). Boom setup, Table II, 30 steps: 0.5, 1 and 2 deg walk
+#: alike (0.892 m/s, 0.716-0.717 m, 1.245 Hz); one knee encoder count (7.3e-3 deg) falls after
+#: 6 touchdowns. 1 deg shortens the hip-ankle distance by under 0.05 mm
+#: (:data:`bipedlab.robots.seven_link.study.KNEE_EXTENDED_DEG`). The planar walks, which apply no
+#: lock torque, read the knee exactly (the tuned gait with a 1 deg latch falls after 19
+#: touchdowns, with 7.3e-3 deg it walks as before).
+STANCE_KNEE_LATCH_DEG = 1.0
 
 
 @pytree
@@ -109,11 +125,12 @@ def tuned_gains(knee_lock_torque: float = 0.0) -> Gains:
     (six numbers: the swing thigh damping is changed in S2 and S3 alike). Used with the
     unilateral check of :func:`policy` (``make_params(..., unilateral_check=True)``).
 
-    With Table II the planar model walks, but at about twice the paper's speed (about 1.05
-    m/s, 0.76 m steps, 1.39 Hz): the hardware lost energy turning its feet on a 1.6 m circle
-    and dragging a boom, which the planar model does not (with the unilateral check, whose
-    contacts no longer chatter and dissipate energy in toe re-impacts, Table II gains even
-    more speed and falls after a few steps). Following Section III-A3 (the stance thigh
+    With Table II and without the unilateral check the planar model walked, but at about
+    twice the paper's speed (about 1.05 m/s, 0.76 m steps, 1.39 Hz), its chattering contacts
+    dissipating energy in toe re-impacts; with the check (no chatter) Table II falls on the
+    planar model after 1 touchdown and walks on the boom setup (0.89 m/s,
+    :mod:`bipedlab.robots.seven_link.setup`), whose foot turning and boom the planar model
+    lacks. Following Section III-A3 (the stance thigh
     couple drives hip extension and so the energy entering each step; the push-off ankle
     stiffness delivers the push-off energy; the swing thigh couple shapes the swing):
 
@@ -234,6 +251,7 @@ class Params:
     knee_tolerance: jax.Array
     knee_rows_in_stance_only: jax.Array
     unilateral_check: jax.Array
+    stance_knee_latch: jax.Array
 
 
 @pytree
@@ -258,16 +276,22 @@ class State:
 def make_params(r: sl.SevenLink, gains: Gains, sensing: bool = False, sample: float = 1e-3,
                 blend_time: float = 0.02, velocity_cutoff_hz: float = 100.0,
                 knee_tolerance_deg: float = 0.0, knee_rows_in_stance_only: bool = False,
-                unilateral_check: bool = True) -> Params:
+                unilateral_check: bool = True, stance_knee_latch_deg: float = 0.0) -> Params:
     """Controller parameters. knee_tolerance_deg: the knee counts as fully extended (its
     stop row enters A, its leg may switch S3 -> S4, the lock torque acts) within this angle
     of the stop, as an encoder threshold would; 0 reads the stop contact exactly.
     unilateral_check: leave out of A the elements whose predicted force would pull (see
-    the module docstring); False is eq. 7 with every touching element in A."""
+    the module docstring); False is eq. 7 with every touching element in A.
+    stance_knee_latch_deg: a knee whose leg is in S1 counts as locked within this angle of
+    its stop (the lock torque's threshold, module docstring item 4; the boom setup's walks use
+    :data:`STANCE_KNEE_LATCH_DEG` with the lock torque); 0 reads it exactly."""
+    if stance_knee_latch_deg < 0.0 or knee_tolerance_deg < 0.0:
+        raise ValueError(f"seven-link: knee thresholds must be >= 0 deg, got latch {stance_knee_latch_deg}, "
+                         f"tolerance {knee_tolerance_deg}")
     f = lambda v: jnp.asarray(v, jnp.float64)  # noqa: E731
     return Params(r, gains, jnp.asarray(1 if sensing else 0), f(sample), f(blend_time), f(velocity_cutoff_hz),
                   f(np.deg2rad(knee_tolerance_deg)), jnp.asarray(bool(knee_rows_in_stance_only)),
-                  jnp.asarray(bool(unilateral_check)))
+                  jnp.asarray(bool(unilateral_check)), f(np.deg2rad(stance_knee_latch_deg)))
 
 
 def initial_state(x0, states=(S1, S3), seed: int = 0) -> State:
@@ -328,13 +352,21 @@ def _measure(p: Params, c: State, x, contacts):
     return jax.lax.cond(p.sensing > 0, sensors, ideal, None)
 
 
+def knees_locked(p: Params, states, active, phi):
+    """(2,) whether the controller reads each knee as locked: on its stop (the active element),
+    within ``p.knee_tolerance`` of it, or, for a leg in S1 (``states`` of the previous sample),
+    within ``p.stance_knee_latch`` of it."""
+    flex = jnp.stack([phi[sl.KNEES[0]], phi[sl.KNEES[1]]])
+    return active[4:] | (flex > -p.knee_tolerance) | ((flex > -p.stance_knee_latch) & (states == S1))
+
+
 def policy(p: Params, c: State, t, x, active):
     """One controller sample: sense, switch, eq. 4, eq. 7, knee lock torque.
     Returns (u (6,), new controller state)."""
     contacts = active[:4]
     q, qd, theta_g, blend, gyro, key, theta = _measure(p, c, x, contacts)
     phi = sl.joint_angles(q)
-    knees = active[4:] | (jnp.stack([phi[sl.KNEES[0]], phi[sl.KNEES[1]]]) > -p.knee_tolerance)
+    knees = knees_locked(p, c.states, active, phi)
     states, flat = next_states(c.states, c.flat_seen, contacts, knees)
     Qd = desired_forces(p.gains, states, q, qd)
     qa = q.at[:2].set(0.0)  # A and M need only the angles

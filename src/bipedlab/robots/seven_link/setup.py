@@ -55,42 +55,36 @@ Table I's M and A); only the plant changes:
 Contacts stay rigid and no-slip (slip is not modelled): the record reports the friction
 coefficient and the peak tangential/normal ratio beside it.
 
-Result (``bipedlab walk seven-link --params paper --setup boom``, Table II as published, not
-retuned, the default start at 0.5 m/s): the robot does not walk. It lands twice (0.61 s and,
-a stumble 0.09 m further, 0.84 s), sinks into a crouch (hip 0.475 m) and stalls; no gait
-figures (speed, step length, frequency, c_mt) exist, 24.5 contact events per touchdown, peak
-no-slip tangential/normal ratio 1.99 (mu 0.8). The planar model with the same parameters
-walks at 1.058 m/s, 0.759 m, 1.394 Hz, c_mt 0.331, 129.6 events per step, ratio 2.65
-(paper: 0.5 m/s, 0.5 m, 1 Hz, 0.31). Measured, 12 requested steps each:
+Result (``bipedlab walk seven-link --params paper --setup boom --steps 30``, Table II as
+published, not retuned, the default start at 0.5 m/s): 30 steps without a fall at 0.892 m/s,
+0.716 m steps, 1.245 Hz, c_mt 0.446 (positive work 0.304), 10.8 contact events per step; a
+heel strike every step and a rolling double support (trailing foot on its toe, leading foot
+landing on its heel) in 17 of the 22 steps of the gait window (0.095 s of double support),
+the trailing heel lifting at the strike (0.002 s after it on average) rather than before it,
+push-off ankle work 8.2 J per step; the stance knee within 1.7 deg of full extension while
+its heel is down (99.5 % of those samples extended); peak no-slip tangential/normal ratio
+3.47 (mu 0.8: the feet would slip). The paper: 0.5 m/s, 0.5 m, 1 Hz, c_mt 0.31.
+
+Before the contact-sequence fixes it fell after 2 touchdowns with 24.5 contact events per
+touchdown: the swing knee's lock at 0.384 s lifted the stance knee 0.001 deg off its stop,
+the controller read it as unlocked (lock torque off, eq. 7 with a free knee asking -4.5 N m of
+it) and it flexed to 30 deg by 0.61 s; and eq. 7 with every touching element in A asked toes,
+heels and knee stops to pull, so they chattered. The fixes: the stance-knee latch of the lock
+torque (:data:`bipedlab.robots.seven_link.controller.STANCE_KNEE_LATCH_DEG`) and the unilateral
+check for Table II (:data:`bipedlab.robots.seven_link.study.UNILATERAL_CHECK`); the event log
+is :func:`bipedlab.robots.seven_link.study.contact_sequence`. With both, Table II on the planar
+model (no boom losses, no lock torque) falls after 1 touchdown; before, it walked at 1.058
+m/s only through the chatter's losses. The sensitivity and part-by-part figures below this
+line were measured before the fixes:
 
 * each part switched off in turn still falls: without the boom inertia after 5 touchdowns,
   without the drive friction after 6, without the knee lock after 2; without the foot
-  turning it stumbles 12 touchdowns at -0.28 m/s (no gait). Each part alone also breaks the
-  walk (boom inertia alone 8 touchdowns, foot turning alone 4, drive friction alone 8, all
-  ending in falls);
-* the assumed sizes do not change this: arm 1 or 4 kg, drive friction x0.5 or x2, mu 0.6
-  or 1.0, knee lock 0.5 or 2 N m all fall within 2-4 touchdowns (mu 0.6 shuffles 12
-  touchdowns at 0.10 m/s);
-* the planar Table II walk is itself a marginal orbit: started at 0.45, 0.55 or 0.7 m/s
-  instead of 0.5 it falls after 9, 9 and 6 touchdowns, so any addition that moves the first
-  steps off it ends the walk, and switching single losses on or off gives no monotone trend;
+  turning it stumbles 12 touchdowns at -0.28 m/s (no gait);
+* the assumed sizes did not change this: arm 1 or 4 kg, drive friction x0.5 or x2, mu 0.6
+  or 1.0, knee lock 0.5 or 2 N m all fell within 2-4 touchdowns;
 * energy: along the planar Table II gait, the drive Coulomb friction would dissipate 0.014
   and the foot turning 0.018-0.023 (robot weight x metre), beside the actuators' 0.331 and
-  Table I's viscous 0.033: about 10 % more work per metre, not by itself the factor two
-  between the model's speed and the paper's;
-* the retuned gains (:func:`bipedlab.robots.seven_link.controller.tuned_gains`), which walk
-  the planar model at 0.494 m/s (12 steps), fall on the boom setup too (after 1
-  touchdown; without the boom inertia 2, without the foot turning 3 at 0.38 m/s, without
-  the drive friction 2, without the knee lock 1). One part at a time on the retuned gait:
-  the drive friction slows it to 0.421 m/s, 0.413 m, 1.02 Hz, c_mt 0.251; the boom inertia
-  with a 1 kg arm to 0.447 m/s, 0.423 m, 1.06 Hz (with the assumed 2 kg it falls after 4
-  touchdowns); the knee lock leaves it at 0.494 m/s; the foot turning alone (3.4 N against
-  the hip) makes it fall backwards after 1 touchdown, the strongest single effect.
-
-So the model does not reproduce the hardware's walk on the boom with Table II: the
-additions are each small in energy but the gait that Table II gives the model is not
-robust to them; the hardware's tuning also relied on what the model still lacks (foot
-compliance and rolling pads, slip, the cabling, sensing).
+  Table I's viscous 0.033.
 """
 from __future__ import annotations
 

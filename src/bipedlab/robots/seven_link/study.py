@@ -69,11 +69,17 @@ def initial_condition(r: sl.SevenLink | None = None, speed: float = START_SPEED)
     return x, active
 
 
-#: The controller variant of each parameter set: "paper" is Table II with eq. 7 as printed
-#: (every touching element in A); "tuned" adds the unilateral check of
-#: :func:`bipedlab.robots.seven_link.controller.policy` (no element asked to pull), which removes the
-#: contact chatter; Table II with the check walks too fast and falls within a few steps.
-UNILATERAL_CHECK = {"paper": False, "tuned": True}
+#: The controller variant of each parameter set: both use the unilateral check of
+#: :func:`bipedlab.robots.seven_link.controller.policy` (no element asked to pull): Section II-B
+#: keeps in A the constraints "active when they restrict the motion", and a toe, heel or knee
+#: stop that eq. 7 would ask to pull restricts nothing. Without it (every touching element in
+#: A) the contacts chatter: Table II on the boom setup made 24.5 contact events per step and
+#: fell after 2 touchdowns (with the stance-knee latch of
+#: :data:`bipedlab.robots.seven_link.controller.STANCE_KNEE_LATCH_DEG`, still 100.6 events per step
+#: and a fall after 10); with it, 10.8 events per step over 30 steps. The planar model with
+#: Table II and the check falls after 1 touchdown (it walked, too fast, only through the
+#: chatter's losses).
+UNILATERAL_CHECK = {"paper": True, "tuned": True}
 
 
 def gains(name: str) -> ctl.Gains:
@@ -141,7 +147,9 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
     # both run on one compiled program
     on, s = boom_setup(su.PARTS) if setup == "planar" else boom_setup(without, **(boom_options or {}))
     g = gains(params).replace(knee_lock_torque=jnp.asarray(knee_lock_torque * on["knee_lock"], jnp.float64))
-    p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params])
+    # the lock torque and its threshold are one mechanism (Fig. 8 caption): the latch with the torque
+    p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params],
+                        stance_knee_latch_deg=ctl.STANCE_KNEE_LATCH_DEG * float(on["knee_lock"]))
     plant = su.plant(s)
     return _setup_simulator(settings_for(steps))(x0, active0, p, ctl.initial_state(x0), plant)
 
@@ -250,6 +258,56 @@ def gait_phases(t, x, u, active, td_time, td_foot, transient: int = TRANSIENT_ST
                 single_support_fraction=float(single.sum() / max(w.sum(), 1)), steps=steps)
 
 
+#: Names of the logged active-set elements (:data:`bipedlab.robots.seven_link.robot.CONTACTS`, then
+#: the knee stops) in :func:`contact_sequence`.
+ELEMENT_NAMES = ("toe_1", "heel_1", "toe_2", "heel_2", "knee_1", "knee_2")
+#: What a change of each element is called (made, broken): strikes and lifts of toes and heels,
+#: locks and unlocks of the knees.
+_ELEMENT_CHANGES = {"toe": ("toe strike", "toe lift"), "heel": ("heel strike", "heel lift"),
+                    "knee": ("knee lock", "knee unlock")}
+
+
+def contact_sequence(t, active, states, t_end: float | None = None) -> list:
+    """The walk's event sequence from its log (t (n,), active (n, 6) of :data:`ELEMENT_NAMES`,
+    leg states (n, 2) as 0-3 for S1-S4): one dict per change between successive samples, in
+    time order, ``dict(t, kind, leg, element)`` with kind one of "toe strike", "toe lift",
+    "heel strike", "heel lift", "knee lock", "knee unlock" or "S1->S2" (a leg's state change,
+    element None); up to t_end (s) when given. An element made and broken within one logged
+    interval leaves no entry (log every sample to see them all)."""
+    t, act, st = np.asarray(t), np.asarray(active, bool), np.asarray(states).astype(int)
+    if act.ndim != 2 or act.shape[1] != len(ELEMENT_NAMES) or len(act) != len(t) or st.shape != (len(t), 2):
+        raise ValueError(f"seven-link: contact_sequence needs t (n,), active (n, 6), states (n, 2); got "
+                         f"{t.shape}, {act.shape}, {st.shape}")
+    out = []
+    for i in range(1, len(t)):
+        if t_end is not None and t[i] > t_end:
+            break
+        for j, name in enumerate(ELEMENT_NAMES):
+            if act[i, j] != act[i - 1, j]:
+                part, leg = name.split("_")
+                out.append(dict(t=float(t[i]), kind=_ELEMENT_CHANGES[part][0 if act[i, j] else 1], leg=int(leg),
+                                element=name))
+        for leg in range(2):
+            if st[i, leg] != st[i - 1, leg]:
+                out.append(dict(t=float(t[i]), kind=f"S{st[i - 1, leg] + 1}->S{st[i, leg] + 1}", leg=leg + 1,
+                                element=None))
+    return out
+
+
+def stance_knee_unlocks(sequence: list, initial=(0, 2)) -> list:
+    """The knee unlocks of a leg in S1 (stance) in a :func:`contact_sequence` whose legs start
+    in the states ``initial`` (0-3; the default start: leg 1 in S1, leg 2 in S3): the stance
+    leg's knee leaving its stop, which the paper's extended-knee stance never shows (Fig. 8)."""
+    state = {1: int(initial[0]), 2: int(initial[1])}
+    out = []
+    for e in sequence:
+        if e["element"] is None:
+            state[e["leg"]] = int(e["kind"][-1]) - 1
+        elif e["kind"] == "knee unlock" and state[e["leg"]] == 0:
+            out.append(e)
+    return out
+
+
 def _finite(v):
     if v is None:
         return None
@@ -305,6 +363,46 @@ def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progres
     return rec
 
 
+def phase_summary(phases: dict | None) -> dict:
+    """The share of steps with a rolling double support and the mean push-off ankle work (J) of
+    a walk's :func:`gait_phases` (None without a gait window)."""
+    if not phases:
+        return dict(rolling_double_support_share=None, push_off_ankle_work_j=None)
+    st = phases["steps"]
+    return dict(rolling_double_support_share=float(np.mean([s["rolling_double_support"] for s in st])),
+                push_off_ankle_work_j=float(np.mean([s["push_off_ankle_work_j"] for s in st])))
+
+
+#: The rows of :func:`parts_table`: the planar model, each part of the boom setup alone, all.
+PARTS_ROWS = (("planar", None), *((f"+ {p.replace('_', ' ')}", p) for p in su.PARTS), ("boom (all)", "all"))
+
+
+def parts_table(steps: int = 30, params: str = "paper", progress=None) -> list:
+    """Table II (or ``params``) walked on the planar model, on it plus one part of the boom
+    setup at a time (:data:`bipedlab.robots.seven_link.setup.PARTS`), and on the whole boom
+    setup: one dict per row of :data:`PARTS_ROWS` with the steps walked, whether it fell, speed,
+    step length, frequency, c_mt, the rolling double support share and the push-off work."""
+    progress = progress or (lambda m: None)
+    weight = float(sl.total_mass(sl.model())) * sl.GRAVITY
+    rows = []
+    for label, part in PARTS_ROWS:
+        progress(f"seven-link parts table: {label}")
+        if part is None:
+            res = run_walk(steps, params)
+        else:
+            without = () if part == "all" else tuple(p for p in su.PARTS if p != part)
+            res = run_walk(steps, params, setup="boom", without=without)
+        n = int(res.n_touchdowns)
+        nl = int(res.n_log_used)
+        ph = gait_phases(np.asarray(res.log_t[:nl]), np.asarray(res.log_x[:nl]), np.asarray(res.log_u[:nl]),
+                         np.asarray(res.log_active[:nl]), np.asarray(res.td_time[:n]), np.asarray(res.td_foot[:n]))
+        m = gait_metrics(res, weight)
+        rows.append(dict(row=label, steps=n, fell=bool(int(res.status) != sc.OK or n < steps),
+                         events_per_step=int(res.n_events) / max(n, 1),
+                         **{k: _finite(m[k]) for k in PAPER_GAIT}, **phase_summary(ph)))
+    return rows
+
+
 def setup_record(res, rec: dict, without=()) -> dict:
     """The boom walk's added record: the setup, its parts, the gait beside the paper's, the
     friction coefficient against the peak no-slip ratio, the identified drive friction and the
@@ -321,6 +419,7 @@ def setup_record(res, rec: dict, without=()) -> dict:
             fig6_decay_read_deg_per_cycle=details["fig6_decay_read_deg_per_cycle"],
             swing_stiffness_nm_per_rad=details["fig6_swing_stiffness_nm_per_rad"],
             rule="F_c = (amplitude lost per cycle) k / 4; ankle = hip (same drive)"),
+        **phase_summary(rec.get("gait_phases")),
         versus_paper={k: dict(model=gait[k], paper=PAPER_GAIT[k],
                               relative_departure=None if gait[k] is None else gait[k] / PAPER_GAIT[k] - 1.0)
                       for k in PAPER_GAIT},
