@@ -116,9 +116,9 @@ BOOM_STEPS = 3
 @pytest.mark.slow
 def test_short_boom_walk_record():
     """Table II as published on the boom setup: the record's keys, and what the setup does to
-    the same controller: the boom setup walks the steps, the planar model (no boom losses, no
-    knee lock) falls after its first touchdown (the setup module's result), with the contacts
-    consistent. The planar walk runs as the boom setup with every part off (one compiled
+    the same controller: the boom setup walks the steps, with the contacts consistent (the
+    planar model, no boom losses and no knee lock, walks these three and falls later:
+    test_walk_seven_link.test_thirty_steps_tuned_and_paper). The planar walk runs as the boom setup with every part off (one compiled
     program)."""
     boom = w.walk(BOOM_STEPS, "paper", setup="boom")
     planar = w.walk(BOOM_STEPS, "paper", setup="boom", without=su.PARTS)
@@ -133,9 +133,7 @@ def test_short_boom_walk_record():
     assert boom["versus_paper"]["speed_mps"]["paper"] == 0.5 and boom["versus_paper"]["cmt"]["paper"] == 0.31
     assert boom["setup_details"]["added_mass_horizontal_kg"] == pytest.approx(su.BOOM_ARM_MASS / 3)
     assert boom["contact_events_per_step"] == boom["events_per_step"]
-    # the same controller: the boom setup walks on, the planar model falls
     assert not boom["fell"] and boom["steps_completed"] == BOOM_STEPS
-    assert planar["fell"] and planar["steps_completed"] < BOOM_STEPS and planar["speed_mps"] is None
     assert boom["friction_cone_exceeded"] == (boom["max_friction_ratio"] > su.FRICTION_COEFFICIENT)
     assert boom["max_impact_energy_change_j"] <= 1e-9
     assert boom["max_constraint_drift"]["position_after_projection_m"] < 1e-8

@@ -148,3 +148,12 @@ def test_table_ii_walks_thirty_steps_on_the_boom_setup():
     assert rec["cmt"] == pytest.approx(0.446, abs=0.02)
     ph = rec["gait_phases"]
     assert ph["heel_on_knee_extended_fraction"] > 0.9
+
+
+def test_phase_summary():
+    steps = [dict(rolling_double_support=True, push_off_ankle_work_j=8.0),
+             dict(rolling_double_support=False, push_off_ankle_work_j=6.0)]
+    assert w.phase_summary(dict(steps=steps)) == dict(rolling_double_support_share=0.5, push_off_ankle_work_j=7.0)
+    assert w.phase_summary(None) == dict(rolling_double_support_share=None, push_off_ankle_work_j=None)
+    assert [r[0] for r in w.PARTS_ROWS] == ["planar", "+ boom inertia", "+ foot turning", "+ drive friction",
+                                            "+ knee lock", "boom (all)"]

@@ -128,7 +128,7 @@ def tuned_gains(knee_lock_torque: float = 0.0) -> Gains:
     With Table II and without the unilateral check the planar model walked, but at about
     twice the paper's speed (about 1.05 m/s, 0.76 m steps, 1.39 Hz), its chattering contacts
     dissipating energy in toe re-impacts; with the check (no chatter) Table II falls on the
-    planar model after 1 touchdown and walks on the boom setup (0.89 m/s,
+    planar model after 5 touchdowns and walks on the boom setup (0.89 m/s,
     :mod:`bipedlab.robots.seven_link.setup`), whose foot turning and boom the planar model
     lacks. Following Section III-A3 (the stance thigh
     couple drives hip extension and so the energy entering each step; the push-off ankle

@@ -77,7 +77,7 @@ def initial_condition(r: sl.SevenLink | None = None, speed: float = START_SPEED)
 #: fell after 2 touchdowns (with the stance-knee latch of
 #: :data:`bipedlab.robots.seven_link.controller.STANCE_KNEE_LATCH_DEG`, still 100.6 events per step
 #: and a fall after 10); with it, 10.8 events per step over 30 steps. The planar model with
-#: Table II and the check falls after 1 touchdown (it walked, too fast, only through the
+#: Table II and the check falls after 5 touchdowns (it walked, too fast, only through the
 #: chatter's losses).
 UNILATERAL_CHECK = {"paper": True, "tuned": True}
 
