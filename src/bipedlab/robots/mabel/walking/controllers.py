@@ -92,6 +92,18 @@ def iolin(m, vc, phase, z, g: Gains, decentralized: bool = False, terms=None):
     return jnp.clip(u, -g.limit, g.limit)
 
 
+def outer_loop_stiffness(A, g: Gains):
+    """(stiffness N m/rad, damping N m s/rad), each (4,): the torque that eq. 42's outer loop
+    puts on each output's own motor (:data:`ACTUATOR_OF_OUTPUT`) per rad, and per rad/s, of
+    that output's error, given the decoupling matrix A = LgLfh (4, 4): (Kp/eps^2, Kd/eps)
+    times that motor's entry of A^-1. The outer loop places the same poles on every output,
+    so an output of small effective inertia (a motor angle) gets a soft loop; these are the
+    figures to set beside pdff's kp, kd (times its signs)."""
+    act = jnp.asarray(ACTUATOR_OF_OUTPUT)
+    w = jnp.linalg.inv(A)[act, jnp.arange(4)]
+    return g.kp_io / g.eps**2 * w, g.kd_io / g.eps * w
+
+
 def feedforward(g: Gains, phase, th):
     """u*(theta, beta) of eq. 43 (phase saturated outside its interval as the constraints are)."""
     a, b = g.beta_bounds[phase, 0], g.beta_bounds[phase, 1]

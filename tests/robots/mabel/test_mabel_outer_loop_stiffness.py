@@ -1,0 +1,45 @@
+"""What eq. 42's outer loop asks of each motor (compliant-HZD paper, Sec. V-D).
+
+The outer loop v = -(Kp/eps^2) y - (Kd/eps) y-dot gives every output the same poles; through
+LgLfh^-1 that is a torque per rad of error proportional to the output's effective inertia. The
+stance leg-shape output is a motor angle (rotor and pulley inertia, about 1e-3 kg m^2), so with
+eps = 0.05 its own motor sees about 0.4 N m/rad, an eighth of PD + feedforward's 3.5 N m/rad:
+the I/O-linearising loop is the softer one on that output, whatever the model mismatch it meets.
+"""
+from __future__ import annotations
+
+import jax.numpy as jnp
+import numpy as np
+
+import bipedlab  # noqa: F401
+from bipedlab.robots.mabel.walking import constraints as vcm
+from bipedlab.robots.mabel.walking import controllers as ctl
+from bipedlab.robots.mabel.walking import stance as wk
+from bipedlab.robots.mabel.walking import study as wm
+
+
+def _at_touchdown(gait="paper-nominal"):
+    vc, g, rec = wm.load_gait(gait)
+    A = ctl.decoupling(wk.without_stop(wk.walking_model()), vc, vcm.MC, jnp.asarray(rec["z_plus"]))[2]
+    return A, g
+
+
+def test_stance_leg_shape_motor_loop_is_softer_than_pd_at_default_eps():
+    A, g = _at_touchdown()
+    k, d = (np.asarray(v) for v in ctl.outer_loop_stiffness(A, g))
+    pd = np.asarray(g.kp) * np.asarray(g.signs)
+    assert 0.2 < k[0] < 1.0, k          # mLS_st: N m per rad of motor angle
+    assert k[0] < pd[0] / 5.0, (k, pd)
+    assert np.all(np.sign(k) == np.sign(pd)), (k, pd)  # each motor pushes its output back
+    assert np.allclose(d, k * (g.kd_io / g.kp_io) * g.eps)
+
+
+def test_stiffness_scales_as_inverse_eps_squared_and_ignores_output_scaling():
+    A, g = _at_touchdown()
+    k = np.asarray(ctl.outer_loop_stiffness(A, g)[0])
+    k2 = np.asarray(ctl.outer_loop_stiffness(A, g.replace(eps=g.eps / 2))[0])
+    assert np.allclose(k2, 4.0 * k)
+    # normalising the outputs (rows of A and y scaled alike) leaves the torque per rad unchanged
+    S = jnp.diag(jnp.asarray([1 / 31.42, 1.0, 1 / 31.42, 1.0]))
+    kn = np.asarray(ctl.outer_loop_stiffness(S @ A, g)[0]) * np.diag(np.asarray(S))
+    assert np.allclose(kn, k)
