@@ -91,26 +91,36 @@ def json_mutation(draw, doc):
 
 
 @st.composite
+def spoiled(draw, raw: bytes, bad=(b"\xff", b"\xc3", b"\x00", b"\xe9", b"\x80\x80"), kinds=("cut", "byte", "bom"),
+            plain: int = 6):
+    """A file's bytes, sometimes damaged as bytes: ``kinds`` among cut short, one of the ``bad``
+    bytes inserted, a UTF-8 byte-order mark, emptied, nested in 33 to 100,000 JSON brackets;
+    left whole ``plain`` times in ``plain + len(kinds)``."""
+    how = draw(st.sampled_from(["none"] * plain + list(kinds)))
+    if how == "cut":
+        return raw[: draw(st.integers(0, len(raw)))]
+    if how == "byte":
+        k = draw(st.integers(0, len(raw)))
+        return raw[:k] + draw(st.sampled_from(list(bad))) + raw[k:]
+    if how == "bom":
+        return b"\xef\xbb\xbf" + raw
+    if how == "empty":
+        return b""
+    if how == "nest":
+        n = draw(st.sampled_from([33, 1000, 100_000]))
+        return b"[" * n + raw + b"]" * n
+    return raw
+
+
+@st.composite
 def json_bytes(draw, doc):
     """The bytes of a damaged gait file: 0-3 structural mutations, serialised, and sometimes
-    damaged as bytes (cut short, an invalid UTF-8 byte, a NUL, deep nesting around it)."""
+    damaged as bytes (cut short, an invalid UTF-8 byte, a NUL, deep nesting around it, Latin-1)."""
     for _ in range(draw(st.integers(0, 3))):
         doc = draw(json_mutation(doc))
-    raw = json.dumps(doc).encode()
-    how = draw(st.sampled_from(["none"] * 6 + ["cut", "byte", "nest", "bom", "latin1"]))
-    if how == "cut":
-        raw = raw[: draw(st.integers(0, len(raw)))]
-    elif how == "byte":
-        k = draw(st.integers(0, len(raw)))
-        raw = raw[:k] + draw(st.sampled_from([b"\xff", b"\xc3", b"\x00", b"\xe9", b"\x80\x80"])) + raw[k:]
-    elif how == "nest":
-        n = draw(st.sampled_from([33, 1000, 100_000]))
-        raw = b"[" * n + raw + b"]" * n
-    elif how == "bom":
-        raw = b"\xef\xbb\xbf" + raw
-    elif how == "latin1":
-        raw = json.dumps(doc, ensure_ascii=False).replace('"', '"\u00e9', 1).encode("latin-1", "replace")
-    return raw
+    if draw(st.integers(0, 11)) == 0:  # the text in Latin-1, a non-ASCII character in it
+        return json.dumps(doc, ensure_ascii=False).replace('"', '"\u00e9', 1).encode("latin-1", "replace")
+    return draw(spoiled(json.dumps(doc).encode(), kinds=("cut", "byte", "nest", "bom")))
 
 
 # ----- CSV logs ----------------------------------------------------------------------------

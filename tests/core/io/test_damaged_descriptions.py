@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
+from mutations import spoiled
 
 from bipedlab.io import description
 
@@ -54,17 +55,8 @@ def damaged(draw):
                 parent.insert(list(parent).index(el), copy.deepcopy(el))
         elif op == "rename" and k > 0:
             el.tag = draw(st.sampled_from(["body", "joint", "link", "geom", "inertial", "x", "robot", "mujoco"]))
-    raw = ET.tostring(root)
-    how = draw(st.sampled_from(["none"] * 6 + ["cut", "byte", "bom", "empty"]))
-    if how == "cut":
-        raw = raw[: draw(st.integers(0, len(raw)))]
-    elif how == "byte":
-        k = draw(st.integers(0, len(raw)))
-        raw = raw[:k] + draw(st.sampled_from([b"\xff", b"\x00", b"\xe9", b"<", b"&"])) + raw[k:]
-    elif how == "bom":
-        raw = b"\xef\xbb\xbf" + raw
-    elif how == "empty":
-        raw = b""
+    raw = draw(spoiled(ET.tostring(root), bad=(b"\xff", b"\x00", b"\xe9", b"<", b"&"),
+                       kinds=("cut", "byte", "bom", "empty")))
     return name.rsplit(".", 1)[1], raw
 
 
