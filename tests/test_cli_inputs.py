@@ -99,8 +99,9 @@ def test_a_bad_jax_variable_is_one_line_before_any_work(env, needle, monkeypatch
     expect_usage_error(["walk", "compass-gait", "--steps", "1"], capsys, needle=needle)
 
 
+@pytest.mark.parametrize("variable", ["BIPEDLAB_CACHE_DIR", "BIPEDLAB_XLA_CACHE_DIR"])
 @pytest.mark.parametrize("what", ["a file", "under a file", "unwritable"])
-def test_a_cache_folder_that_cannot_be_used_is_one_line(what, tmp_path, monkeypatch, capsys):
+def test_a_cache_folder_that_cannot_be_used_is_one_line(what, variable, tmp_path, monkeypatch, capsys):
     f = tmp_path / "f"
     f.write_text("x")
     if what == "unwritable":
@@ -112,8 +113,8 @@ def test_a_cache_folder_that_cannot_be_used_is_one_line(what, tmp_path, monkeypa
             target = str(ro / "cache")
     else:
         target = str(f) if what == "a file" else str(f / "cache")
-    monkeypatch.setenv("BIPEDLAB_CACHE_DIR", target)
-    expect_usage_error(["walk", "compass-gait", "--steps", "1"], capsys, needle="$BIPEDLAB_CACHE_DIR")
+    monkeypatch.setenv(variable, target)
+    expect_usage_error(["walk", "compass-gait", "--steps", "1"], capsys, needle=f"${variable}")
 
 
 def test_local_device_ids_are_checked_in_a_single_process_run(monkeypatch, capsys):

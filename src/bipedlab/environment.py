@@ -3,14 +3,16 @@
 JAX and XLA read ``JAX_PLATFORMS`` and ``XLA_FLAGS`` when they start a backend; a wrong value
 ends a run late, in a traceback (an unknown platform, a GPU platform on a machine without a
 GPU) or in XLA's fatal log line, which ends the process from inside the library. bipedlab reads
-``BIPEDLAB_CACHE_DIR`` for its compiled programs. :func:`check` finds these problems first and
-raises :class:`bipedlab.commands.UsageError` with one line naming the variable:
+``BIPEDLAB_CACHE_DIR`` (and ``BIPEDLAB_XLA_CACHE_DIR``) for its compiled programs. :func:`check`
+finds these problems first and raises :class:`bipedlab.commands.UsageError` with one line
+naming the variable:
 
 * ``JAX_PLATFORMS``: a comma-separated list of platform names JAX knows (:data:`PLATFORMS`);
 * ``XLA_FLAGS``: blank-separated ``--name`` or ``--name=value`` words; when it is set, a forked
   child starts XLA's CPU backend with it (:func:`flags_problem`, about a second), so that a flag
   XLA does not know is reported in one line instead of ending the process;
-* ``BIPEDLAB_CACHE_DIR``: a folder that is, or can be created, and is writable.
+* ``BIPEDLAB_CACHE_DIR``, ``BIPEDLAB_XLA_CACHE_DIR``: a folder that is, or can be created, and
+  is writable.
 
 A platform that is known but cannot start here (``cuda`` without a GPU) is found when the
 command starts the backend, before its first compilation (:func:`devices_problem`).
@@ -151,11 +153,12 @@ def check(environ=None, probe: bool = True) -> None:
     problem = xla_flags_problem(flags)
     if problem:
         raise UsageError(f"$XLA_FLAGS: {problem}")
-    cache = env.get("BIPEDLAB_CACHE_DIR")
-    if cache is not None and cache.strip():
-        problem = cache_dir_problem(cache)
-        if problem:
-            raise UsageError(f"$BIPEDLAB_CACHE_DIR: {problem}")
+    for name in ("BIPEDLAB_CACHE_DIR", "BIPEDLAB_XLA_CACHE_DIR"):
+        cache = env.get(name)
+        if cache is not None and cache.strip():
+            problem = cache_dir_problem(cache)
+            if problem:
+                raise UsageError(f"${name}: {problem}")
     if probe and flags.strip() and not backend_started():
         problem = flags_problem()
         if problem:

@@ -50,17 +50,19 @@ class TextError(ValueError):
     """Bytes that are not a text file (the message says why, without the file's name)."""
 
 
+def byte_order_mark(data: bytes) -> tuple[bytes, str] | None:
+    """(the mark, its encoding) when ``data`` starts with a byte-order mark, else None."""
+    return next(((bom, name) for bom, name in _BOMS if data.startswith(bom)), None)
+
+
 def decode_text(data: bytes) -> str:
     """The text of a file's bytes: UTF-8, or UTF-8 / UTF-16 / UTF-32 after the byte-order mark
     that names it (the mark dropped); line ends are left to ``str.splitlines`` (LF, CRLF, CR).
     TextError: an empty file, bytes that are not text in that encoding, a NUL character."""
     if not data:
         raise TextError("is empty (0 bytes)")
-    encoding, start = "utf-8", 0
-    for bom, name in _BOMS:
-        if data.startswith(bom):
-            encoding, start = name, len(bom)
-            break
+    mark = byte_order_mark(data)
+    encoding, start = (mark[1], len(mark[0])) if mark else ("utf-8", 0)
     try:
         text = data[start:].decode(encoding)
     except UnicodeDecodeError as e:

@@ -294,10 +294,6 @@ def walk(study: HZDStudy, vc, z_star, meta: dict, steps: int = 50, perturb: floa
     return rec, w, z0
 
 
-MAX_TIME = 2.0
-"""Seconds a step may last before the walk counts as fallen (:func:`bipedlab.gait.walking.walk`'s default)."""
-
-
 def fall_reason(vc, st, w, k: int) -> str:
     """Why step ``k`` (counted from 0) of the walk ``w`` (numpy) is not a step, in words."""
     n = st.n
@@ -310,8 +306,8 @@ def fall_reason(vc, st, w, k: int) -> str:
         return (f"{where} is spurious: the swing began at phase {phase:.3g}, already past the middle of the step "
                 f"({mid:.3g}) where the touchdown is armed, so the foot came down after {1e3 * float(w.duration[k]):.0f} ms"
                 " without a swing (the robot was thrown out of the gait)")
-    if float(w.duration[k]) >= MAX_TIME - 1e-9:
-        return f"{where}: no touchdown within {MAX_TIME:g} s"
+    if float(w.duration[k]) >= gw.MAX_STEP_TIME - 1e-9:
+        return f"{where}: no touchdown within {gw.MAX_STEP_TIME:g} s"
     return f"{where}: the hip went below the ground or the phase stopped advancing"
 
 

@@ -91,6 +91,10 @@ class Step:
     status: jax.Array
 
 
+MAX_STEP_TIME = 2.0
+"""Seconds a step may last before the walk counts as fallen (the default ``max_time``)."""
+
+
 def arming_phase(vc):
     """The phase (``vc.c @ q``) past which the touchdown is armed: the middle of the step."""
     return vc.theta_plus + 0.5 * (vc.theta_minus - vc.theta_plus)
@@ -121,7 +125,7 @@ def transition(vc, st: Stance, ctrl: Controller) -> hybrid.Transition:
                              reset=reset)
 
 
-def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: float = 2.0,
+def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: float = MAX_STEP_TIME,
          min_height: float = 0.0) -> Step:
     """One step from a pre-impact state: impact, relabel, closed-loop flow to the next
     touchdown (:func:`bipedlab.sim.hybrid.flow_until_event` on :func:`transition`, the map of
@@ -146,7 +150,7 @@ def step(vc, st: Stance, ctrl: Controller, z_minus, h: float = 1e-3, max_time: f
 
 
 def walk(vc, st: Stance, ctrl: Controller, z_minus, steps: int, h: float = 1e-3,
-         max_time: float = 2.0, min_height: float = 0.0) -> Step:
+         max_time: float = MAX_STEP_TIME, min_height: float = 0.0) -> Step:
     """``steps`` consecutive steps (a Step of stacked arrays); after a failure the state is
     frozen and later steps carry the failing status."""
 

@@ -41,7 +41,7 @@ from typing import Sequence
 
 import numpy as np
 
-from bipedlab.inputs import model_text
+from bipedlab.inputs import byte_order_mark, model_text
 from bipedlab.mechanics.tree import PRISMATIC, REVOLUTE, Body, Model, Point, Rotor, build_model
 
 AXES = {"x": 0, "y": 1, "z": 2}
@@ -102,17 +102,10 @@ def _warnings_kept(mujoco, kept: list):
         mujoco.set_mju_user_warning(previous)
 
 
-def _text(path: str) -> str:
-    """The text of a model file checked before MuJoCo reads it
-    (:func:`bipedlab.inputs.model_text`); ValueError in one line naming the file."""
-    return model_text(path)
-
-
 def _plain_utf8(path: str) -> bool:
     """Whether MuJoCo can read the file itself (UTF-8 without a byte-order mark)."""
     with open(path, "rb") as fh:
-        head = fh.read(4)
-    return not any(head.startswith(b) for b in (b"\xef\xbb\xbf", b"\xff\xfe", b"\xfe\xff", b"\x00\x00\xfe\xff"))
+        return byte_order_mark(fh.read(4)) is None
 
 
 def _compile(path: str):
@@ -120,7 +113,7 @@ def _compile(path: str):
     MuJoCo's message and warnings folded into it, if the compiler rejects it. Warnings of a
     file that compiles are issued as Python warnings, one line each."""
     mujoco = _mujoco()
-    text = _text(path)
+    text = model_text(path)  # checked before MuJoCo reads it; ValueError naming the file
     kept: list = []
     try:
         with _warnings_kept(mujoco, kept):
