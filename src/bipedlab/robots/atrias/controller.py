@@ -71,6 +71,28 @@ Choices where the paper is silent or ambiguous (documented, see the study's repo
   and so forces late by the delay, with no knowledge of it;
 - a landing with a short virtual leg (early, on a step-up) sets that stance's rest length to
   the touchdown length (at least 0.8 l0) instead of starting with a pre-compressed spring.
+
+Measured: the flat-ground bias of the paper's controller (steady +3.2 cm, -7.0 cm/s; the step
+budget of :mod:`bipedlab.robots.atrias.budget`). The energy is right, its split between height
+and speed is not: the apex sits 1.9 J below the target (-0.65 cm/s of the speed error) and the
+lift-off state holds the next apex's energy to 0.1 J. The stance realises the spring-mass model
+about the point where the landing foot stopped sliding (its replay from the end of the slide:
+1.084 m, 4.94 m/s; the robot 1.082 m, 4.93 m/s); the flight lands 0.18 deg flatter than
+commanded (replay from touchdown: 1.055 m, 4.99 m/s). The landing foot meets the ground at
+4.0 m/s forward (the policy retracts the leg at 0.8 rad/s against the 4.9 m/s of the COM) and
+slides 2.3 cm in the 12 ms the saturated hip torque of the transition (III-E) takes to stop it;
+the spring-mass replay from touchdown about the point moved forward by that slide alone reaches
+the robot's apex height (1.081 m). The slide scales with I_m / tau_max, values the paper does
+not give: I_m = 0.3 / 0.5 / 1.0 / 2.0 kg m^2 (plant and controller) slid 0.9 / 1.4 / 2.3 / 3.7
+cm and ran +0.7 / +1.5 / +3.2 / +6.0 cm, -5.0 / -5.8 / -7.0 / -8.2 cm/s (apex energy -10 / -8 /
+-2 / +11 J under the proportional energy feedback); tau_max = 500 N m: slide 1.3 cm, +2.2 cm,
+-7.1 cm/s. Changed alone, none of the controller's readings moved the bias toward the paper:
+the paper's own sliding-to-stance test (the stance command under the slipping dynamics reduces
+|x_r' - x_a'|) switches at the same samples as the friction-cone test; the spring about the
+touchdown point gave +3.4 cm, -19.7 cm/s, about the real foot's x +3.3 cm, -7.4 cm/s; the
+paper's literal E_trans (trunk COM, trunk mass) over-estimates the lift-off energy by 6 J
+(+3.4 cm, -9.4 cm/s); a degree-9 fit of a*(t) +3.2 cm, -7.0 cm/s; a flight LQR with ten times
+the angle weights and three times the rate weights lands 0.02 deg flat (+2.5 cm, -5.5 cm/s).
 """
 from __future__ import annotations
 
