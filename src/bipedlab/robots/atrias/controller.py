@@ -83,16 +83,23 @@ commanded (replay from touchdown: 1.055 m, 4.99 m/s). The landing foot meets the
 slides 2.3 cm in the 12 ms the saturated hip torque of the transition (III-E) takes to stop it;
 the spring-mass replay from touchdown about the point moved forward by that slide alone reaches
 the robot's apex height (1.081 m). The slide scales with I_m / tau_max, values the paper does
-not give: I_m = 0.3 / 0.5 / 1.0 / 2.0 kg m^2 (plant and controller) slid 0.9 / 1.4 / 2.3 / 3.7
-cm and ran +0.7 / +1.5 / +3.2 / +6.0 cm, -5.0 / -5.8 / -7.0 / -8.2 cm/s (apex energy -10 / -8 /
--2 / +11 J under the proportional energy feedback); tau_max = 500 N m: slide 1.3 cm, +2.2 cm,
--7.1 cm/s. Changed alone, none of the controller's readings moved the bias toward the paper:
-the paper's own sliding-to-stance test (the stance command under the slipping dynamics reduces
-|x_r' - x_a'|) switches at the same samples as the friction-cone test; the spring about the
-touchdown point gave +3.4 cm, -19.7 cm/s, about the real foot's x +3.3 cm, -7.4 cm/s; the
-paper's literal E_trans (trunk COM, trunk mass) over-estimates the lift-off energy by 6 J
-(+3.4 cm, -9.4 cm/s); a degree-9 fit of a*(t) +3.2 cm, -7.0 cm/s; a flight LQR with ten times
-the angle weights and three times the rate weights lands 0.02 deg flat (+2.5 cm, -5.5 cm/s).
+not give: I_m = 0.3 / 0.5 / 1.0 / 2.0 kg m^2 (plant and controller) slid
+0.9 / 1.4 / 2.3 / 3.7 cm and ran +0.7 / +1.5 / +3.2 / +6.0 cm, -5.0 / -5.8 / -7.0 / -8.2 cm/s
+(apex energy -10 / -8 / -2 / +11 J under the proportional energy feedback); tau_max = 500 N m:
+slide 1.3 cm, +2.2 cm, -7.1 cm/s. The foot mass m_f (also not given) moves it less and scatters
+the apexes when light: 0.02 / 0.1 kg gave +2.5 / +3.1 cm, -3.3 / -5.5 cm/s (apex s.d.
+0.35 / 0.08 cm), 0.4 kg an irregular gait. Changed alone, none of the controller's readings
+moved the bias toward the paper: the paper's own sliding-to-stance test (the stance command
+under the slipping dynamics reduces |x_r'-x_a'|) switches at the same samples as the
+friction-cone test (flat ground; on 4 rough terrains of 12 s the same for the paper's
+controller, bounce heights within 3 mm for bipedlab's); the spring about the touchdown point
+gave +3.4 cm, -19.7 cm/s, about the real foot's x +3.3 cm, -7.4 cm/s; the paper's literal
+E_trans (trunk COM, trunk mass) over-estimates the lift-off energy by 6 J (+3.4 cm, -9.4 cm/s);
+a degree-9 fit of a*(t) +3.2 cm, -7.0 cm/s; a flight LQR with ten times the angle weights and
+three times the rate weights lands 0.02 deg flat (+2.5 cm, -5.5 cm/s). Nor did the ground: twice
+the friction +2.8 cm, -6.4 cm/s (slide 2.0 cm), four times the vertical stiffness +3.3 cm,
+-7.1 cm/s, a landing foot that starts sliding instead of sticking for its first step +3.1 cm,
+-6.9 cm/s.
 """
 from __future__ import annotations
 
