@@ -177,7 +177,7 @@ def closed_loop(kind: str) -> sl.SampledLoop:
         m, mc = plant_model(), wk.walking_model()
         loop = _LOOPS[kind] = sl.SampledLoop(
             plant_step=lambda s, x, u, d, h, t: plant_step(m, s, x, u, d, h, t), sensor=sensor,
-            controller=lambda s, c, r, t: sw.controller(mc, kind, s, c, r, t),
+            controller=lambda s, c, r, t: sw.controller(mc, kind, s, c, r, t, predict_impact_rates=True),
             fell=lambda s, x0, r, u, x: fell(m, s, x0, r, u, x), sample_time=sw.SAMPLE, substeps=SUBSTEPS,
             log=lambda s, x0, r, u, x, c: log(m, s, x0, r, u, x, c), exogenous=exogenous)
     return loop
