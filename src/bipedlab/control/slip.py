@@ -16,7 +16,12 @@ an apex h higher (the energetic difference is what makes the embedding inexact).
 Choices (the paper does not give them): apex perturbations are sampled with the energy E*
 fixed (so the speed at apex follows from the height), the branch of f^-1 is the one
 continuous with the periodic gait's landing angle, the fit is a degree-5 polynomial in t
-over the sampled range and is held constant outside it.
+over the sampled range and is held constant outside it. The controller of the articulated
+robot and the pure spring-mass model run the same polynomial (Sec. IV-A); the solved pairs
+themselves (:class:`PolicyTable`) are the exact policy at its nodes. Measured (m = 59 kg,
+k0 = 32 kN/m, y* = 1.05 m, 5 m/s; :func:`fit_error`): the fit follows the solved policy to
+8.2e-6 rad at most, 2.0e-6 rad rms, over landing times 0.005 to 0.273 s (29 samples and the
+28 heights between them), 1.9e-6 rad at the periodic gait's own landing time.
 """
 from __future__ import annotations
 
@@ -165,10 +170,49 @@ def swing_policy(p: SlipParams, gait: Gait, dy: float = 0.3, n: int = 41, degree
     return SwingPolicy(jnp.asarray(coeffs), float(s[0, 1]), float(s[-1, 1])), s
 
 
-def policy_angle(pol: SwingPolicy, t):
-    """a*(t), t the time since apex (s); held at the ends of the fitted range."""
+@pytree
+class PolicyTable:
+    """a*(t) as the solved pairs themselves (t ascending): linear between them, held at the
+    ends. Exact at its nodes, so on flat ground a run from the target apex lands on the
+    periodic gait's own pair (:func:`policy_table`)."""
+
+    t: jax.Array
+    a: jax.Array
+
+
+def policy_table(samples) -> PolicyTable:
+    """The table of :func:`swing_policy`'s samples (y_i, t, a*), sorted by t."""
+    s = np.asarray(samples)
+    return PolicyTable(jnp.asarray(s[:, 1]), jnp.asarray(s[:, 2]))
+
+
+def policy_angle(pol, t):
+    """a*(t), t the time since apex (s); held at the ends of the fitted range (a
+    :class:`SwingPolicy` polynomial, or a :class:`PolicyTable`)."""
+    if isinstance(pol, PolicyTable):
+        return jnp.interp(t, pol.t, pol.a)
     tc = jnp.clip(t, pol.t_min, pol.t_max)
     return jnp.polyval(pol.coeffs, tc)
+
+
+def fit_error(p: SlipParams, gait: Gait, pol: SwingPolicy, samples) -> dict:
+    """The polynomial's fit error a_poly(t) - a*(t) (rad) over the landing times it covers: at
+    the solved samples and at the landing times of the apex heights halfway between neighbouring
+    samples (eq. 1 solved there too): its largest size (``max_rad``), rms (``rms_rad``) and
+    value at the periodic gait's own landing time (``gait_rad``, the sample nearest y*), with
+    the range of landing times (``t_min_s``, ``t_max_s``) and the number of points."""
+    s = np.asarray(samples)
+    mid = []
+    for y in 0.5 * (s[1:, 0] + s[:-1, 0]):
+        a = deadbeat_angle(p, gait, float(y))
+        if np.isfinite(a):
+            mid.append((y, np.sqrt(2.0 * max(y - p.l0 * np.sin(a), 0.0) / p.g), a))
+    pts = np.concatenate([s, np.asarray(mid).reshape(-1, 3)])
+    err = np.polyval(np.asarray(pol.coeffs), np.clip(pts[:, 1], pol.t_min, pol.t_max)) - pts[:, 2]
+    k = int(np.argmin(np.abs(s[:, 0] - gait.y_apex)))
+    return dict(max_rad=float(np.max(np.abs(err))), rms_rad=float(np.sqrt(np.mean(err ** 2))),
+                gait_rad=float(np.polyval(np.asarray(pol.coeffs), s[k, 1]) - s[k, 2]),
+                t_min_s=float(np.min(pts[:, 1])), t_max_s=float(np.max(pts[:, 1])), points=int(len(pts)))
 
 
 def policy_rate(pol: SwingPolicy, t):

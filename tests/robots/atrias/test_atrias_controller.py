@@ -117,7 +117,7 @@ def test_system_com_matches_the_plant_and_flight_predictor_is_ballistic():
     assert float(qp[0]) == pytest.approx(float(q[0] + 0.01 * qd[0]))
 
 
-def test_the_papers_controller_rejects_a_pitch_push_and_holds_the_apex_energy_on_flat_ground():
+def test_the_papers_controller_rejects_a_pitch_push_and_holds_the_apex_energy_on_flat_ground(paper_flat_run):
     """The paper's controller as published (no energy integral, no landing-angle trim, no
     lift-off debounce): the 10 deg trunk perturbation settles as in the nominal trial (after
     1.5 s, about four steps, the perturbed pitch stays as close to the reference as the
@@ -127,8 +127,7 @@ def test_the_papers_controller_rejects_a_pitch_push_and_holds_the_apex_energy_on
     (seed 0; apex +3.0 to +3.3 cm, speed -6.6 to -7.1 cm/s, the split of that energy that
     remains), where the spring measured from the sinking foot left it 53 J below (steady speed
     -22 cm/s)."""
-    st = ra.Settings(terrain="flat", seconds=8.0, energy="conservation", controller="paper")
-    out, (rp, _, _, _) = ra.simulate(st, 2, theta0_offsets_deg=[0.0, 10.0], log=True)
+    out, (rp, _, _, _) = paper_flat_run  # flat, 8 s, energy conservation, 0 and 10 deg (conftest)
     assert np.all(out["status"] == 0)
     assert _pitch_after(out, 1, 1.5) <= _pitch_after(out, 0, 1.5) + 0.5
     k = out["n_apex"][0]

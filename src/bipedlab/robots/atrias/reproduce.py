@@ -7,7 +7,11 @@ noise and delay are traced arguments of the study's chunk), the flat run with it
 The judged rows run the paper's controller as published (``--controller paper``);
 bipedlab's controller, with its three additions (:data:`~bipedlab.robots.atrias.catalog.ADDITIONS`),
 runs flat ground and the mass and stiffness errors beside them (experiments ``*-bipedlab``), in
-rows labelled "bipedlab's controller" that are shown, not judged.
+rows labelled "bipedlab's controller" that are shown, not judged. The pure spring-mass model's
+judged flat rows run the polynomial a*(t) of the robot's controller, as the paper's model (Sec.
+IV-A), with the polynomial's fit error in their facts; the exact policy (the solved landing pairs)
+runs beside it in the rows ``flat_slip_exact_*``, shown, not judged (experiment flat, records
+``slip_model`` and ``slip_model_exact_policy``).
 Paper values: ``data/paper_running.json``."""
 from __future__ import annotations
 
@@ -164,15 +168,15 @@ def _stats(rec, prefix: str, missing: Skip) -> dict:
 def measure(records: dict, quick: bool) -> dict:
     missing = Skip("not run in --quick" if quick else "not run")
     out = {k: missing for k in ("trunk_settle_steps", "flat_apex_error_m", "flat_speed_error_mps", "flat_success", "flat_slip_apex_error_m",
-                                "flat_slip_speed_error_mps", "rough_slip_apex_sd_m", "rough_slip_speed_sd_mps")}
+                                "flat_slip_speed_error_mps", "flat_slip_exact_apex_error_m", "flat_slip_exact_speed_error_mps",
+                                "rough_slip_apex_sd_m", "rough_slip_speed_sd_mps")}
     flat = records.get("flat")
     if flat is not None:
         h, v = dig(flat, "last10", "apex_height_error_mean_m"), dig(flat, "last10", "speed_error_mean_mps")
         out["flat_apex_error_m"] = None if h is None else abs(h)  # the paper states the errors' sizes
         out["flat_speed_error_mps"] = None if v is None else abs(v)
         out["flat_success"] = float(not flat["fell"])
-        out["flat_slip_apex_error_m"] = dig(flat, "slip_model", "apex_height_error_mean_m")
-        out["flat_slip_speed_error_mps"] = dig(flat, "slip_model", "speed_error_mean_mps")
+        out.update(_slip_flat(flat))
     trunk = records.get("trunk-10deg")
     if trunk is not None and trunk.get("fell"):
         out["trunk_settle_steps"] = Failed("the run with the trunk perturbation fell")
@@ -196,6 +200,25 @@ def measure(records: dict, quick: bool) -> dict:
     out.update(_variants(records, missing))
     rows = {r["id"] for r in json.loads(DATA.read_text(encoding="utf-8"))["rows"]}
     return {k: v for k, v in out.items() if k in rows}
+
+
+def _slip_flat(flat) -> dict:
+    """The pure spring-mass model on flat ground (experiment flat): the judged rows run the
+    robot controller's polynomial a*(t), as the paper's model (Sec. IV-A), with its fit error
+    (``fit_max_rad``, ``fit_rms_rad``, ``fit_gait_rad``, over ``fit_t_min_s`` to ``fit_t_max_s``)
+    and the exact policy's error (``exact``) beside them; the rows ``flat_slip_exact_*`` run the
+    exact policy (shown, not judged), with the polynomial's (``polynomial``) and the difference
+    (``change``, the polynomial's minus the exact policy's)."""
+    out = {}
+    fit = dig(flat, "slip_model", "policy_fit", default=None) or {}
+    for q, key in (("apex_error_m", "apex_height_error_mean_m"), ("speed_error_mps", "speed_error_mean_mps")):
+        poly, exact = dig(flat, "slip_model", key), dig(flat, "slip_model_exact_policy", key, default=None)
+        if poly is None or exact is None or not fit:
+            out[f"flat_slip_{q}"], out[f"flat_slip_exact_{q}"] = poly, exact
+            continue
+        out[f"flat_slip_{q}"] = Measured(poly, dict(exact=exact, **{f"fit_{k}": v for k, v in fit.items()}))
+        out[f"flat_slip_exact_{q}"] = Measured(exact, dict(polynomial=poly, change=poly - exact))
+    return out
 
 
 def _difference(a, b, **facts):

@@ -6,7 +6,9 @@ flight's apex) until the foot meets the ground (the core's
 :func:`bipedlab.sim.hybrid.first_event_time`: a 2 ms grid, refined by bisection),
 then stance on the stationary foot (:func:`bipedlab.control.slip.stance`). Records, per step,
 the bounce height (apex above the ground of the stance before it, the quantity the policy
-targets) and the forward speed at apex. Vmappable over terrains.
+targets) and the forward speed at apex. Vmappable over terrains. The policy is the fitted
+polynomial (:class:`~bipedlab.control.slip.SwingPolicy`, the one the robot's controller runs) or
+the solved pairs themselves (:class:`~bipedlab.control.slip.PolicyTable`, the exact policy).
 """
 from __future__ import annotations
 

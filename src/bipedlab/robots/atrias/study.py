@@ -10,6 +10,9 @@ Statistics skip the first two apexes (the start transient) and, for the robot, c
 apexes before a fall; ``apex_height_error_steady_m`` and ``speed_error_steady_mps`` (also as
 ``last10``) are the mean errors over the last ten apexes of each surviving trial, the paper's
 steady-state errors, beside the whole-run means that include the start transient.
+On flat ground the record also holds the pure spring-mass model with the exact policy
+(``slip_model_exact_policy``) beside the one with the controller's polynomial (``slip_model``,
+with the polynomial's fit error ``policy_fit``, :func:`bipedlab.control.slip.fit_error`).
 """
 from __future__ import annotations
 
@@ -115,6 +118,17 @@ def _policy(m: float, k0: float, gait):
     smm_model = slip.SlipParams(m=m, k0=k0)
     pol, samples = slip.swing_policy(smm_model, gait)
     return smm_model, pol, samples
+
+
+_FIT: dict = {}
+
+
+def _fit_error(smm, gait, pol, samples) -> dict:
+    """:func:`bipedlab.control.slip.fit_error` of the policy, once per process and model."""
+    key = (float(smm.m), float(smm.k0), float(gait.y_apex), float(gait.speed))
+    if key not in _FIT:
+        _FIT[key] = slip.fit_error(smm, gait, pol, samples)
+    return dict(_FIT[key])
 
 
 def make_terrains(st: Settings, n: int, length: float):
@@ -241,10 +255,17 @@ def steady_errors(out, survivors, gait, last: int = STEADY_APEXES) -> dict:
                 speed_error_steady_mps=float(ts.mean() - gait.speed) if ts.size else float("nan"))
 
 
-def slip_model(st: Settings, terr, n: int, gait):
-    """The pure spring-mass model with the same policy on the same terrains."""
+def slip_model(st: Settings, terr, n: int, gait, policy: str = "polynomial"):
+    """The pure spring-mass model on the same terrains with the swing policy of the robot's
+    controller (Sec. IV-A: "the same polynomial used for the articulated robot controller"; the
+    very polynomial :func:`build` gives the controller), or with ``policy="table"`` the exact
+    policy, the solved pairs (t, a*) themselves (:class:`~bipedlab.control.slip.PolicyTable`)."""
     p = slip.SlipParams(m=at.AtriasParams().m)
-    pol, _ = slip.swing_policy(p, gait)
+    _, pol, samples = _policy(p.m, p.k0, gait)
+    if policy == "table":
+        pol = slip.policy_table(samples)
+    elif policy != "polynomial":
+        raise ValueError(f"policy must be 'polynomial' or 'table', got {policy!r}")
     n_steps = int(np.ceil(st.distance / 1.2)) + 4 if not st.seconds else int(np.ceil(st.seconds / 0.4)) + 2
     run = jax.jit(jax.vmap(lambda h: slip_run.run(p, gait, pol, tr.Terrain(h, terr.step_len, terr.x0, terr.grade),
                                                     n_steps)))
@@ -325,6 +346,12 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
         rec["trunk_settle_band_deg"] = SETTLE_BAND_DEG
     srec, sr = slip_model(st, terr, n, gait)
     rec["slip_model"] = srec
+    if st.terrain == "flat":
+        # the paper's pure spring-mass model runs the controller's polynomial (above); beside it the
+        # exact policy, and the polynomial's fit error (Sec. IV-A attributes the model's error to it)
+        smm, pol, samples = _policy(float(at.AtriasParams().m), float(slip.SlipParams().k0), gait)
+        srec["policy_fit"] = _fit_error(smm, gait, pol, samples)
+        rec["slip_model_exact_policy"] = slip_model(st, terr, n, gait, policy="table")[0]
     if out_dir:
         _write_outputs(out_dir, st, out, sr, cp, gait, rec)
     return rec
@@ -388,6 +415,14 @@ def summary(rec: dict) -> str:
     s = rec["slip_model"]
     lines.append(f"  spring-mass model: success {100 * s['success_rate']:.0f} %, apex s.d. {100 * s['apex_height_sd_m']:.1f} cm,"
                  f" speed s.d. {100 * s['speed_sd_mps']:.1f} cm/s")
+    if "slip_model_exact_policy" in rec:
+        f, x = s["policy_fit"], rec["slip_model_exact_policy"]
+        lines.append(f"  spring-mass model, the controller's polynomial a*(t): apex height error {100 * s['apex_height_error_mean_m']:+.1e} cm,"
+                     f" speed error {100 * s['speed_error_mean_mps']:+.1e} cm/s (fit error {f['max_rad']:.1e} rad at most,"
+                     f" {f['rms_rad']:.1e} rad rms over landing times {f['t_min_s']:.3f}-{f['t_max_s']:.3f} s,"
+                     f" {f['gait_rad']:+.1e} rad at the gait's)")
+        lines.append(f"  spring-mass model, the exact policy: apex height error {100 * x['apex_height_error_mean_m']:+.1e} cm,"
+                     f" speed error {100 * x['speed_error_mean_mps']:+.1e} cm/s")
     return "\n".join(lines)
 
 
