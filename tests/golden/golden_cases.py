@@ -64,6 +64,14 @@ CLI = {
                            special=CROSS_CPU_PEAKS),
     "cli_walk_mabel_iolin": Case("cli", ("walk", "mabel", "--steps", "3", "--controller", "iolin"), slow=True,
                                  rtol=CROSS_CPU_RECORD, special=CROSS_CPU_PEAKS),
+    "cli_walk_mabel_decentralized": Case("cli", ("walk", "mabel", "--steps", "3", "--controller", "decentralized"),
+                                         slow=True, rtol=CROSS_CPU_RECORD, special=CROSS_CPU_PEAKS),
+    # the 13-DoF plant under each controller, on the gait the experiments walk and on the
+    # paper-model gait (the compliant ground's impacts, cable stretch, eq. 42's default eps)
+    **{f"cli_walk_mabel_full_{c}_{g.replace('-', '_')}": Case(
+        "cli", ("walk", "mabel", "--plant", "full", "--steps", "3", "--controller", c, "--gait", g), slow=True,
+        rtol=CROSS_CPU_RECORD, special=CROSS_CPU_PEAKS)
+       for c in ("pdff", "iolin", "decentralized") for g in ("nominal", "paper-nominal")},
     "cli_walk_seven_link": Case("cli", ("walk", "seven-link", "--steps", "2"), slow=True),
     "cli_experiment_seven_link_free_swing": Case("cli", ("experiment", "seven-link", "free-swing")),
     "cli_run_atrias": Case("cli", ("run", "atrias", "--seconds", "1", "--controller", "bipedlab")),
