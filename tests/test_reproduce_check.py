@@ -77,3 +77,39 @@ def test_published_needs_check(capsys, tmp_path):
         main(["reproduce", "--published", str(tmp_path)])
     assert e.value.code == 2
     assert "--published applies with --check" in capsys.readouterr().err
+
+
+def _key_copy(tmp_path, edit):
+    """docs/report's report.json and quick.json copied to tmp_path, ``edit`` applied to both."""
+    src = check.default_folder()
+    for name in ("report.json", check.QUICK_FILE):
+        data = json.loads((src / name).read_text())
+        edit(data)
+        (tmp_path / name).write_text(json.dumps(data))
+    return tmp_path
+
+
+def test_stale_names_each_experiment_whose_stored_key_is_not_the_codes(tmp_path):
+    """The currency check computes every experiment's result key from the source, without
+    running it, and names each one the published page holds under another key, or lacks."""
+    from bipedlab.report import registry, runner
+
+    papers = registry.papers()
+    exp = papers["seven-link"].experiment("free-swing")
+    current = runner.cache_key("seven-link", exp.name, exp.args(False), runner.robot_package(exp.run),
+                               papers["seven-link"].values)
+
+    def edit(data):
+        data["papers"]["seven-link"]["experiments"] = [
+            dict(e, cache_key=current if e["name"] == "free-swing" else "0" * 32)
+            for e in data["papers"]["seven-link"]["experiments"] if e["name"] != "walk"]
+
+    named = {(s["report"], s["paper"], s["experiment"]) for s in check.stale(_key_copy(tmp_path, edit))}
+    assert ("report.json", "seven-link", "free-swing") not in named     # its key is the code's
+    assert ("report.json", "seven-link", "walk") in named               # missing from the page
+    others = [e.name for e in papers["seven-link"].experiments if e.name not in ("free-swing", "walk")]
+    assert others and all(("report.json", "seven-link", n) in named for n in others)  # other keys
+    gone = next(s for s in check.stale(_key_copy(tmp_path, lambda d: d["papers"]["seven-link"]["experiments"].append(
+        dict(name="no-such-experiment", cache_key="1" * 32)))) if s["experiment"] == "no-such-experiment")
+    assert gone["current"] is None and gone["published"] == "1" * 32
+

@@ -86,8 +86,9 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         if reason is None and met is None:
             reason = (values.render(tol["why"], namespace, where + " tolerance.why") if tol["kind"] == "report"
                       else "not comparable under this tolerance")
+        word = values.verdict(met, self_check, tol.get("derivation"))
         if met is True:
-            head = "self-check met" if self_check else "agrees"
+            head = word
             why = f"{head} {values.tolerance_text(tol, unit, sign)}: {values.render(tol['why'], namespace, where + ' tolerance.why')}"
         elif met is False:
             text = r.get("departs_why") or "departs (no explanation recorded)"
@@ -101,14 +102,16 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
                         tolerance_spec=dict(kind=tol["kind"], value=tol.get("value"), derivation=tol.get("derivation"),
                                             sign=sign),
                         tolerance_why=tol["why"], derivation=tol.get("derivation"), self_check=self_check,
-                        met=met, agrees=None if self_check else met, verdict=values.verdict(met, self_check), why=why))
+                        met=met, agrees=None if self_check else met, verdict=word, why=why))
     return out, data
 
 
 def counts(rows: list) -> dict:
-    """How many rows agree, depart, are self-checks (met or not) or are not judged."""
+    """How many rows match, agree or depart (numbers), hold or fail (claims), are self-checks
+    (met or not) or are not judged: each verdict class apart."""
     v = [r["verdict"] for r in rows]
-    return dict(rows=len(rows), agrees=v.count("agrees"), departs=v.count("departs"),
+    return dict(rows=len(rows), matches=v.count("matches"), agrees=v.count("agrees"), departs=v.count("departs"),
+                claims_hold=v.count("claim holds"), claims_fail=v.count("claim fails"),
                 self_checks=v.count("self-check met") + v.count("self-check not met"),
                 self_checks_not_met=v.count("self-check not met"), not_judged=v.count("not judged"))
 

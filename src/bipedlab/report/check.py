@@ -122,3 +122,35 @@ def summary(check: dict) -> str:
     for d in check["new"]:
         lines.append(f"  new      {d['paper']}/{d['id']}: {_v(d['now'])} ({d['verdict']}), not in the published report")
     return "\n".join(lines)
+
+
+def stale(folder=None) -> list[dict]:
+    """The experiments whose stored result keys in a published report are not the keys the code
+    at hand gives them, computed without running anything (:func:`bipedlab.report.runner.cache_key`
+    from the source, the arguments and the paper's values file, the key ``reproduce`` stores
+    its results under): for the full run's ``report.json`` (full arguments) and the quick run's
+    ``quick.json`` (quick arguments). Each entry: ``{report, paper, experiment, published,
+    current}`` (``published`` None for an experiment the report lacks, ``current`` None for one
+    the code no longer has). Empty when the published page is the code's."""
+    from bipedlab.report import registry, runner
+
+    folder = Path(folder) if folder is not None else default_folder()
+    papers = registry.papers()
+    out = []
+    for name, quick in (("report.json", False), (QUICK_FILE, True)):
+        path = folder / name
+        if not path.is_file():
+            raise CheckError(f"no published report at {path}")
+        published = json.loads(decode_text(path.read_bytes())).get("papers", {})
+        for key, paper in papers.items():
+            stored = {e["name"]: e.get("cache_key") for e in published.get(key, {}).get("experiments", [])}
+            for exp in paper.experiments:
+                args = exp.args(quick)
+                current = None if args is None else runner.cache_key(
+                    paper.key, exp.name, args, runner.robot_package(exp.run), paper.values)
+                if stored.get(exp.name) != current:
+                    out.append(dict(report=name, paper=key, experiment=exp.name, published=stored.get(exp.name),
+                                    current=current))
+            for gone in sorted(set(stored) - {e.name for e in paper.experiments}):
+                out.append(dict(report=name, paper=key, experiment=gone, published=stored[gone], current=None))
+    return out

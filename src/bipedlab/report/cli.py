@@ -132,12 +132,13 @@ def _run(args, progress):
 
 
 def summary(report: dict) -> str:
+    from bipedlab.report.html import counts_text
+
     lines = []
     for k, p in report["papers"].items():
         c = p["counts"]
         run = [e for e in p["experiments"] if not e["skipped"]]
-        lines.append(f"{k:<15} {c['rows']:>3} rows: {c['agrees']:>3} agree, {c['departs']:>3} depart, "
-                     f"{c.get('self_checks', 0):>3} self-checks, {c['not_judged']:>3} not judged  ({len(run)} experiments, "
+        lines.append(f"{k:<15} {counts_text(c)} ({len(run)} experiments, "
                      f"{sum(e['wall_s'] for e in run):.0f} s of study time)")
     lines.append(f"report: {report['index_html']} (and report.json); {report['wall_s']:.0f} s wall, "
                  f"{report['cpu_s']:.0f} s CPU{', --quick' if report['quick'] else ''}")

@@ -5,6 +5,8 @@ from __future__ import annotations
 import math
 from html import escape
 
+from bipedlab.report.values import COUNT_KEYS
+
 CSS = """
 body{font-family:system-ui,-apple-system,"Segoe UI",Helvetica,Arial,sans-serif;margin:0 auto;max-width:1180px;
 padding:1.2em 1.6em;color:#1d1d1f;line-height:1.45}
@@ -13,8 +15,10 @@ h3{margin-top:1.4em}
 table{border-collapse:collapse;width:100%;font-size:.9em;margin:.6em 0}
 th,td{border:1px solid #d0d0d0;padding:.3em .5em;vertical-align:top;text-align:left}
 th{background:#f3f3f3}td.num{text-align:right;white-space:nowrap;font-variant-numeric:tabular-nums}
-tr.agrees td.verdict{background:#e3f4e1;color:#1b5e20;font-weight:600}
+tr.matches td.verdict,tr.agrees td.verdict{background:#e3f4e1;color:#1b5e20;font-weight:600}
 tr.departs td.verdict{background:#fde7e4;color:#8e1c0e;font-weight:600}
+tr.claimholds td.verdict{background:#eef7ec;color:#2e6b2a}
+tr.claimfails td.verdict{background:#fdeeea;color:#8e1c0e}
 tr.notjudged td.verdict{background:#f1f1f1;color:#555}
 tr.selfcheck td.verdict{background:#e8eef8;color:#1f3f73;font-style:italic}
 .src{color:#666;font-size:.85em}.why{font-size:.88em}
@@ -45,21 +49,24 @@ def _val(v, unit: str = "") -> str:
 def _verdict(row) -> tuple[str, str]:
     """(CSS class, words) of a row's verdict; a self-check is shown as one, never as agreement."""
     v = row.get("verdict") or {True: "agrees", False: "departs"}.get(row.get("agrees"), "not judged")
-    cls = {"agrees": "agrees", "departs": "departs", "not judged": "notjudged"}.get(v, "selfcheck")
+    cls = {"matches": "matches", "agrees": "agrees", "departs": "departs", "claim holds": "claimholds",
+           "claim fails": "claimfails", "not judged": "notjudged"}.get(v, "selfcheck")
     return cls, v
 
 
 def counts_text(c: dict) -> str:
-    """'N rows: a agree, d depart, s self-checks (k not met), n not judged.'"""
+    """'N rows: m match the paper's printed precision, a agree within a band, d depart; claims:
+    h hold, f fail; s self-checks (k not met); n not judged.' (each class apart)"""
     sc = c.get("self_checks", 0)
-    scs = (f"{sc} self-check{'s' if sc != 1 else ''} ({c.get('self_checks_not_met', 0)} not met, not counted as "
-           f"agreement), " if sc else "")
-    return f'{c["rows"]} rows: {c["agrees"]} agree, {c["departs"]} depart, {scs}{c["not_judged"]} not judged.'
+    return (f'{c["rows"]} rows: {c.get("matches", 0)} match the paper\'s printed precision, {c["agrees"]} agree '
+            f'within a band, {c["departs"]} depart; claims: {c.get("claims_hold", 0)} hold, '
+            f'{c.get("claims_fail", 0)} fail; {sc} self-check{"s" if sc != 1 else ""} '
+            f'({c.get("self_checks_not_met", 0)} not met); {c["not_judged"]} not judged.')
 
 
 def _table(rows: list) -> str:
     out = ['<table class="rows"><thead><tr><th>quantity</th><th>paper (source)</th><th>bipedlab</th>'
-           '<th>agrees / departs</th><th>tolerance</th><th>why</th></tr></thead><tbody>']
+           '<th>verdict</th><th>tolerance</th><th>why</th></tr></thead><tbody>']
     for r in rows:
         cls, word = _verdict(r)
         out.append(f'<tr class="{cls}" id="row-{escape(r["id"])}"><td>{escape(r["quantity"])}</td>'
@@ -132,13 +139,16 @@ def page(report: dict) -> str:
     papers = report["papers"]
     dev = report["device"]
     total = {k: sum(p["counts"].get(k, 0) for p in papers.values())
-             for k in ("rows", "agrees", "departs", "self_checks", "self_checks_not_met", "not_judged")}
+             for k in COUNT_KEYS}
     head = (f'<!DOCTYPE html><html lang="en"><head><meta charset="utf-8"><title>bipedlab reproduction report</title>'
             f'<meta name="viewport" content="width=device-width, initial-scale=1"><style>{CSS}</style></head><body>')
     parts = [head, "<h1>bipedlab: the four papers, reproduced</h1>",
              f'<p>Each section sets the paper\'s numbers beside the simulation\'s, with the tolerance for agreement and '
-             f'why a row departs. A self-check (the method against its own target, or a number it was fitted '
-             f'to) is shown as such and never counted as agreement. '
+             f'why a row departs. A number <em>matches</em> within the paper\'s printed precision, '
+             f'<em>agrees</em> within a band derived from a spread or a size, or <em>departs</em>; a stated '
+             f'claim (a bound, a range, a yes/no) <em>holds</em> or <em>fails</em>; a self-check (the method '
+             f'against its own target, or a number it was fitted to) is met or not. The classes are counted '
+             f'apart: a claim or a self-check never counts as agreement with a number. '
              f'{"A <strong>--quick</strong> run: every experiment reduced as stated in its table; " if report["quick"] else ""}'
              f'<span class="counts">{escape(counts_text(total))}</span></p>',
              "<nav>" + "".join(f'<a href="#{escape(k)}">{escape(p["title"])}</a>' for k, p in papers.items())

@@ -68,7 +68,16 @@ DERIVATION_KINDS = {"precision": ("rel", "abs", "range", "at_least", "at_most"),
                     "own_target": ("rel", "abs", "at_least", "at_most", "range", "equals")}
 SIGNS = {"+": 1, "-": -1}
 REQUIRED = ("id", "quantity", "paper", "source", "tolerance")
-VERDICTS = ("agrees", "departs", "self-check met", "self-check not met", "not judged")
+#: the verdict classes: a number within the paper's printed precision *matches*; within a band
+#: derived from a spread or a size it *agrees*; outside either it *departs*; a stated claim
+#: (a bound, a range or a yes/no, derivation ``claim``) *holds* or *fails*; a self-check is met
+#: or not; a row the run did not measure, or that the paper gives no number for, is not judged.
+#: Numeric agreement, claims and self-checks are counted apart.
+VERDICTS = ("matches", "agrees", "departs", "claim holds", "claim fails", "self-check met", "self-check not met",
+            "not judged")
+#: the counts of a paper's rows (:func:`bipedlab.report.build.counts`), in the counts line's order
+COUNT_KEYS = ("rows", "matches", "agrees", "departs", "claims_hold", "claims_fail", "self_checks",
+              "self_checks_not_met", "not_judged")
 
 
 class ValuesError(ValueError):
@@ -339,13 +348,18 @@ def agrees(value, tolerance: dict, paper=None, sign=None):
     return bool(err <= (t * abs(paper) if kind == "rel" else t) * (1 + 1e-12))
 
 
-def verdict(ok, self_check=None) -> str:
-    """The verdict word of a row: one of VERDICTS."""
+def verdict(ok, self_check=None, derivation=None) -> str:
+    """The verdict word of a row (one of :data:`VERDICTS`) from its test's outcome ``ok``
+    (True / False / None), whether it is a self-check and its tolerance's ``derivation``."""
     if ok is None:
         return "not judged"
     if self_check:
         return "self-check met" if ok else "self-check not met"
-    return "agrees" if ok else "departs"
+    if derivation == "claim":
+        return "claim holds" if ok else "claim fails"
+    if not ok:
+        return "departs"
+    return "matches" if derivation == "precision" else "agrees"
 
 
 def _g(v) -> str:

@@ -52,7 +52,8 @@ def test_self_checks_are_counted_apart_and_never_as_agreement(report):
     rep, _ = report
     p = rep["papers"]["toy"]
     rows = {r["id"]: r for r in p["rows"]}
-    assert p["counts"] == dict(rows=6, agrees=1, departs=1, self_checks=3, self_checks_not_met=1, not_judged=1)
+    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, claims_hold=1, claims_fail=0, self_checks=3,
+                               self_checks_not_met=1, not_judged=1)
     for i in ("kt", "ground", "fit"):
         assert rows[i]["agrees"] is None and rows[i]["self_check"]
     assert rows["kt"]["met"] is True and rows["kt"]["verdict"] == "self-check met"
@@ -61,17 +62,21 @@ def test_self_checks_are_counted_apart_and_never_as_agreement(report):
     assert rows["ground"]["why"] == "self-check not met: the hop does not determine it (44%)"
     assert rows["kt"]["why"].startswith("self-check met at most 0.02")
     assert rows["speed"]["verdict"] == "departs" and rows["speed"]["why"] == "walks at 0.837 m/s"
-    assert rows["travel"]["verdict"] == "agrees" and rows["hops"]["verdict"] == "not judged"
+    assert rows["travel"]["verdict"] == "claim holds" and rows["hops"]["verdict"] == "not judged"  # a claim, apart
 
 
 def test_the_page_and_the_summary_show_self_checks_as_such(report):
     rep, out = report
     page = (out / "index.html").read_text()
     assert page.count('<tr class="selfcheck"') == 3
-    assert page.count('<tr class="agrees"') == 1 and page.count('<tr class="departs"') == 1
+    assert page.count('<tr class="claimholds"') == 1 and page.count('<tr class="departs"') == 1
+    assert page.count('<tr class="agrees"') == 0 and page.count('<tr class="matches"') == 0
     assert "self-check not met" in page and "self-check: a fit" in page
-    assert "6 rows: 1 agree, 1 depart, 3 self-checks (1 not met, not counted as agreement), 1 not judged." in page
-    assert html.counts_text(dict(rows=2, agrees=1, departs=1, not_judged=0)) == "2 rows: 1 agree, 1 depart, 0 not judged."
+    assert ("6 rows: 0 match the paper&#x27;s printed precision, 0 agree within a band, 1 depart; claims: 1 hold, "
+            "0 fail; 3 self-checks (1 not met); 1 not judged.") in page
+    assert html.counts_text(dict(rows=2, matches=1, agrees=0, departs=1, not_judged=0)) == (
+        "2 rows: 1 match the paper's printed precision, 0 agree within a band, 1 depart; claims: 0 hold, 0 fail; "
+        "0 self-checks (0 not met); 0 not judged.")
     rep.update(index_html="i.html", report_json="r.json")
     assert "3 self-checks" in cli.summary(rep)
 

@@ -96,7 +96,8 @@ def test_every_verdict_of_a_built_report_follows_from_its_numbers(key, tmp_path)
         report = build.build([paper], results, quick=True, out_dir=tmp_path / f"r{k}", wall_s=0.0, cpu_s=0.0)
         out = json.loads((tmp_path / f"r{k}" / "report.json").read_text())["papers"][key]
         assert out["counts"] == report["papers"][key]["counts"]
-        tally = dict(agrees=0, departs=0, self_checks=0, self_checks_not_met=0, not_judged=0)
+        tally = dict(matches=0, agrees=0, departs=0, claims_hold=0, claims_fail=0, self_checks=0,
+                     self_checks_not_met=0, not_judged=0)
         for src, got in zip(rows, out["rows"]):
             assert got["id"] == src["id"]
             v = chosen[src["id"]]
@@ -106,20 +107,25 @@ def test_every_verdict_of_a_built_report_follows_from_its_numbers(key, tmp_path)
                                                got["tolerance_spec"]["sign"])
             sc = bool(src.get("self_check"))
             assert got["agrees"] == (None if sc else want), src["id"]
+            # the class follows from the outcome and what the tolerance is derived from: the printed
+            # precision -> matches, a spread or a size -> agrees, a stated claim -> holds / fails
+            derivation = src["tolerance"].get("derivation")
             word = ("not judged" if want is None else
                     ("self-check met" if want else "self-check not met") if sc else
-                    "agrees" if want else "departs")
+                    ("claim holds" if want else "claim fails") if derivation == "claim" else
+                    "departs" if not want else "matches" if derivation == "precision" else "agrees")
             assert got["verdict"] == word, (src["id"], v)
             if want is False and not sc:
                 assert got["why"] and "{" not in got["why"]
-            tally["agrees" if word == "agrees" else "departs" if word == "departs" else
-                  "not_judged" if word == "not judged" else "self_checks"] += 1
+            tally[{"matches": "matches", "agrees": "agrees", "departs": "departs", "claim holds": "claims_hold",
+                   "claim fails": "claims_fail", "not judged": "not_judged"}.get(word, "self_checks")] += 1
             tally["self_checks_not_met"] += word == "self-check not met"
         assert out["counts"] == dict(rows=len(rows), **tally)
         page = (tmp_path / f"r{k}" / "index.html").read_text()
-        assert page.count('<tr class="selfcheck"') == tally["self_checks"]
-        assert page.count('<tr class="agrees"') == tally["agrees"]
-        assert page.count('<tr class="departs"') == tally["departs"]
+        for cls, n in (("selfcheck", tally["self_checks"]), ("matches", tally["matches"]), ("agrees", tally["agrees"]),
+                       ("departs", tally["departs"]), ("claimholds", tally["claims_hold"]),
+                       ("claimfails", tally["claims_fail"])):
+            assert page.count(f'<tr class="{cls}"') == n, cls
 
 
 def test_the_oracle_checks_what_the_row_adds():
