@@ -47,6 +47,7 @@ def test_a_published_report_is_checked_and_a_changed_value_exits_1(tmp_path, cap
     assert main(argv) == 0
     rec = json.loads(capsys.readouterr().out)
     assert rec["quick"] and rec["check"]["matches"] and rec["check"]["rows"] == rec["check"]["matched"] > 0
+    assert rec["check"]["stale"] is None  # no full run's report.json in the folder: no key comparison
     data = json.loads((pub / check.QUICK_FILE).read_text())
     row = next(r for r in data["papers"]["seven-link"]["rows"] if r["id"] == "free_swing_hip_half_cycles")
     row["bipedlab"] += 1
@@ -112,4 +113,7 @@ def test_stale_names_each_experiment_whose_stored_key_is_not_the_codes(tmp_path)
     gone = next(s for s in check.stale(_key_copy(tmp_path, lambda d: d["papers"]["seven-link"]["experiments"].append(
         dict(name="no-such-experiment", cache_key="1" * 32)))) if s["experiment"] == "no-such-experiment")
     assert gone["current"] is None and gone["published"] == "1" * 32
-
+    line = check.summary(dict(published={}, matched=1, rows=1, matches=True, differs=[], missing=[], new=[],
+                              stale=["seven-link/walk", "seven-link/free-swing"]))
+    assert line.splitlines()[-1] == ("the published report's results were computed from other source than the code "
+                                     "at hand for 2 experiments (seven-link/walk, seven-link/free-swing): regenerate it")

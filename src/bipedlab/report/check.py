@@ -121,6 +121,9 @@ def summary(check: dict) -> str:
                      "not in this run")
     for d in check["new"]:
         lines.append(f"  new      {d['paper']}/{d['id']}: {_v(d['now'])} ({d['verdict']}), not in the published report")
+    if check.get("stale"):
+        lines.append(f"the published report's results were computed from other source than the code at hand for "
+                     f"{len(check['stale'])} experiments ({', '.join(check['stale'])}): regenerate it")
     return "\n".join(lines)
 
 

@@ -128,6 +128,12 @@ def _run(args, progress):
         from bipedlab.report import check
 
         report["check"] = check.compare(args._published, report, [p.key for p in papers])
+        try:  # the experiments the published page holds under other result keys than the code's
+            report["check"]["stale"] = sorted({f"{s['paper']}/{s['experiment']}" for s in
+                                               check.stale(args.published or check.default_folder())
+                                               if s["paper"] in {p.key for p in papers}})
+        except check.CheckError:
+            report["check"]["stale"] = None  # a folder without the full run's report.json
     return report, summary
 
 
