@@ -16,7 +16,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-TRIALS = 240
+TRIALS = 120
 BASE = ["robustness", "five-link", "--steps", "3", "--chunk", "4", "--devices", "2", "--seed", "2"]
 #: a full disk after two chunks: the third chunk's write fails half-way (ENOSPC)
 FULL_DISK = """

@@ -48,7 +48,7 @@ def prob():
 
 @pytest.fixture(scope="module")
 def evaluate(prob):
-    return jax.jit(lambda x: go.evaluate(prob, x))
+    return go.evaluator(prob)  # the solver's own program for this problem: compiled once
 
 
 @pytest.fixture(scope="module")
@@ -94,10 +94,17 @@ def test_step_period_is_the_integral_of_dtheta_over_thetadot(evaluate, x_star):
 
 
 @pytest.fixture(scope="module")
-def one_step(shipped, st):
+def step_and_jacobian(shipped, st):
+    """(the closed-loop step from z-, its autodiff Poincaré Jacobian): one forward-mode pass of
+    the walk's own compiled analysis (the gait traced)."""
     vc, z_minus, _ = shipped
-    s = jax.jit(lambda z: gw.step(vc, st, IOLIN, z))(z_minus)
-    return jax.tree_util.tree_map(np.asarray, s)
+    s, J = gw.poincare_step_program(vc, st, IOLIN, jnp.asarray(z_minus))
+    return jax.tree_util.tree_map(np.asarray, s), np.asarray(J)
+
+
+@pytest.fixture(scope="module")
+def one_step(step_and_jacobian):
+    return step_and_jacobian[0]
 
 
 def test_one_closed_loop_step_in_time_returns_to_the_fixed_point(shipped, st, one_step):
@@ -119,9 +126,9 @@ def test_one_closed_loop_step_in_time_returns_to_the_fixed_point(shipped, st, on
 # ---- Poincaré analysis -------------------------------------------------------------------
 
 @pytest.fixture(scope="module")
-def jacobians(shipped, st):
+def jacobians(shipped, st, step_and_jacobian):
     vc, z_minus, _ = shipped
-    J = np.asarray(jax.jit(lambda z: gw.poincare_jacobian(vc, st, IOLIN, z))(z_minus))
+    J = step_and_jacobian[1]
     J_fd = gw.poincare_jacobian_fd(vc, st, IOLIN, z_minus)
     return J, J_fd
 

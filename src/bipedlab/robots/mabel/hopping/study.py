@@ -388,15 +388,16 @@ def robustness(samples: int = 32, hops: int = 50, seed: int = 0) -> dict:
     X[:, m.n + _I["x"]] += rng.uniform(-0.2, 0.2, samples)
     X[:, m.n + _I["y"]] += rng.uniform(-0.3, 0.0, samples)
     steps = int((hops + 1) * 0.7 / float(base.period))
+
+    def one(x0, p, c0):
+        c0 = dataclasses.replace(c0, h_prev=hop.quantise(p, sense(m, p, x0)[0]))
+        return run_samples(m, p, x0, c0, steps, record=False)[1].touchdowns
+
+    batch = jax.jit(jax.vmap(one, in_axes=(0, None, None)))  # the controller traced: one program for both
     for name, flag in (("with_torso_update", 1.0), ("without_torso_update", 0.0)):
         p = base.replace(torso_update=jnp.asarray(flag))
         c0 = hop.initial_state(p, sense(m, p, jnp.asarray(x_nom))[0])
-
-        def one(x0, p=p, c0=c0):
-            c0 = dataclasses.replace(c0, h_prev=hop.quantise(p, sense(m, p, x0)[0]))
-            return run_samples(m, p, x0, c0, steps, record=False)[1].touchdowns
-
-        td = np.asarray(jax.jit(jax.vmap(one))(jnp.asarray(X)))
+        td = np.asarray(batch(jnp.asarray(X), p, c0))
         done = np.maximum(td - 1, 0)
         out[name] = {"completed_fraction": float(np.mean(done >= hops)), "median_hops": float(np.median(done))}
     return out
