@@ -8,8 +8,10 @@ mean-hip-angle feedback (III-D), the sliding transition (III-E), swing-leg lengt
 memory and one measurement; u = (tau1, tau2, F1, F2) in robot leg order.
 
 Choices where the paper is silent or ambiguous (documented, see the study's report):
-- the landing hip angle uses the exact geometry g_a* = atan2(l0 cos a + d sin th,
-  -l0 sin a + d cos th) instead of the paper's small-offset expression;
+- the landing hip angle is the geometry solved explicitly, g_a* = atan2(l0 cos a + d sin th,
+  -l0 sin a + d cos th), where the paper's gamma_1* = pi/2 + a*(t) - asin(d sin(gamma_1 - th) / l_v)
+  (Sec. III-C) states the same triangle implicitly, with the current leg angle gamma_1 and
+  virtual leg length l_v on its right-hand side;
 - the compensated reference (whose algebra the paper omits) keeps g_a* and moves only the
   trunk reference, to the minimiser of w_theta (th - th*)^2 + w_phi (phi - pi)^2 on the
   reachable set of the conserved momentum (:func:`running_model.compensated_reference`);
