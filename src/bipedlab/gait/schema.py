@@ -298,7 +298,6 @@ def optional_array(d: dict, key: str, source: str, prefix: str = "", shape=(None
 RECORD_ARRAYS = {
     "peak_torques_nm": ((None,), TORQUE, "N m"),
     "peak_torques": ((None,), TORQUE, "N m"),
-    "torque_limits_nm": ((None,), TORQUE, "N m"),
     "poincare_eigenvalues": ((None,), math.inf, ""),
     "poincare_eigenvalues_complex": ((None, 2), math.inf, ""),
 }
@@ -309,6 +308,15 @@ def record_arrays(d: dict, source: str, prefix: str = "") -> None:
     record ``d`` is a finite array of its shape."""
     for key, (shape, bound, unit) in RECORD_ARRAYS.items():
         optional_array(d, key, source, prefix, shape, bound, unit)
+    limits = d.get("torque_limits_nm")  # per actuator: N m, or null where the file sets no limit
+    if limits is not None:
+        if not isinstance(limits, list):
+            fail(source, prefix + "torque_limits_nm", f"expected a list, got {type(limits).__name__}")
+        for i, v in enumerate(limits):
+            if v is not None and (isinstance(v, bool) or not isinstance(v, (int, float))
+                                  or not 0.0 < v <= TORQUE):
+                fail(source, f"{prefix}torque_limits_nm[{i}]",
+                     f"expected null (no limit) or a torque in (0, {TORQUE:g}] N m, got {v!r}")
 
 
 def increasing(values: dict, source: str, prefix: str = "") -> None:

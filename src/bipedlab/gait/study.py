@@ -60,6 +60,11 @@ MATCH = 0.05
 #: planar test gait and 1.3e-4 on a 0.7 m/s gait of a heavier five-body model, whatever the time
 #: step; a gait whose swing foot grazes the ground mid-step is off by 1-30.
 PERIODIC_TOL = 1e-2
+#: The remedies a design's controller note names (:func:`remedy` reads them back): more swing
+#: clearance for a gait whose swing point reaches the ground early, a bound on the restricted
+#: map's eigenvalue for a gait whose zero dynamics are themselves unstable.
+REMEDY_CLEARANCE = "design it with --clearance M"
+REMEDY_BOUND = "bound it in the design with --max-eigenvalue R"
 
 
 class UnstableGait(ValueError):
@@ -115,7 +120,7 @@ def _not_periodic(full: dict) -> str:
         return f"the closed loop from the fixed point does not reach the next touchdown ({full['status']})"
     return (f"the closed loop from the fixed point does not return to it (touchdown after {full['duration']:.4f} s, "
             f"max |P(z*) - z*| {full['residual']:.2g}): the swing point reaches the ground before the end of the "
-            "step; no controller gain acts on the zero dynamics, so none helps (design it with --clearance M)")
+            f"step; no controller gain acts on the zero dynamics, so none helps ({REMEDY_CLEARANCE})")
 
 
 def choose_controller(study: HZDStudy, vc, z_minus, controller: str = "iolin", rho: float | None = None):
@@ -148,8 +153,23 @@ def choose_controller(study: HZDStudy, vc, z_minus, controller: str = "iolin", r
         note = (f"no eps from {grid[0]:g} to {grid[-1]:g} brings the full map's max |eig| within {MATCH:g} of the "
                 f"restricted map's {rho:.4f}; eps {eps:g} gives the smallest, {lam:.4f}")
     if abs(rho) >= 1.0:
-        note += "; the restricted map is itself unstable, which no output convergence mends (bound it in the design)"
+        note += f"; the restricted map is itself unstable, which no output convergence mends ({REMEDY_BOUND})"
     return ctrl, full, [(e, m) for e, m, _, _ in tried], note
+
+
+def remedy(rec: dict) -> str | None:
+    """The design option an unstable design record's controller note names as its remedy:
+    ``"clearance"`` (the closed loop's swing point reaches the ground before the end of the step),
+    ``"max_eigenvalue"`` (the restricted map is itself unstable), or None (stable, or no remedy
+    the design applies)."""
+    if rec.get("stable"):
+        return None
+    note = rec.get("controller_note") or ""
+    if REMEDY_CLEARANCE in note:
+        return "clearance"
+    if REMEDY_BOUND in note:
+        return "max_eigenvalue"
+    return None
 
 
 def _eigen_record(controller: str, full: dict, rho: float) -> dict:

@@ -53,8 +53,10 @@ def _optimize_arguments(p) -> None:
     p.add_argument("--controller", choices=CONTROLLERS, default="iolin", help="controller for the Poincaré analysis")
     p.add_argument("--max-eigenvalue", type=EIGENVALUE, default=None, metavar="R",
                    help="bound the restricted Poincaré map's |eigenvalue| by R inside the design (default: no bound)")
-    p.add_argument("--clearance", type=CLEARANCE, default=0.0, metavar="M",
-                   help="the swing foot at least M metres above the ground at mid-step (default 0: no bound)")
+    p.add_argument("--clearance", type=CLEARANCE, default=None, metavar="M",
+                   help="the swing foot at least M metres above the ground at mid-step (default: 3 %% of the "
+                        "leg's hip-to-foot length, retried at twice that if the swing foot still lands early; "
+                        "0: no bound)")
     add_save(p, "the gait (for walk model FILE --gait GAIT)")
 
 

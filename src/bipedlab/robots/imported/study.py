@@ -34,14 +34,67 @@ def _extra(s: robot.Setup, path) -> dict:
                 actuators=list(s.desc.actuators), torque_limits_nm=_limits(s))
 
 
+#: The default swing clearance at mid-step, as a fraction of the leg length (the stance hip to its
+#: foot point in the file's nominal pose, every joint at zero: straight legs in the usual file).
+#: Human walking lifts the toe about 1.3 cm over the ground at mid-swing, its minimum (Winter
+#: 1992, The Biomechanics and Motor Control of Human Gait), for a leg of about 0.9 m: 1.5 % of the
+#: leg, with an ankle that dorsiflexes the toe up. A point foot has no ankle and its toe is also
+#: the contact point, so the default asks twice that, 3 % of the leg: 2.4 cm for RABBIT's 0.8 m
+#: legs (whose shipped gait clears 5.4 cm on that parabola, so the bound is inactive there).
+CLEARANCE_FRACTION = 0.03
+#: A retried design's clearance, times the first design's.
+CLEARANCE_RETRY_FACTOR = 2.0
+#: The bound on the restricted map's |eigenvalue| a retried design takes when the first design's
+#: zero dynamics are unstable: a 1 % offset shrinks to a tenth within 11 steps.
+RETRY_MAX_EIGENVALUE = 0.8
+
+
+def default_clearance(s: robot.Setup) -> float:
+    """The default swing clearance at mid-step, m: :data:`CLEARANCE_FRACTION` of the leg length."""
+    return CLEARANCE_FRACTION * float(s.leg)
+
+
+def _design(s: robot.Setup, speed, cost, controller, progress, max_eigenvalue, clearance):
+    prob = hzd_study.problem(s.study, speed, cost, max_eigenvalue, clearance)
+    return hzd_study.design(s.study, prob, robot.initial_guess(s, prob), controller, cost, progress)
+
+
 def optimize(path, stance: str, swing: str, speed: float = 0.8, cost: str = "torque", controller: str = "iolin",
              save=None, plane: str = "xz", progress=None, max_eigenvalue: float | None = None,
-             clearance: float = 0.0) -> dict:
+             clearance: float | None = None, retry: bool = True) -> dict:
     """The design record (:func:`bipedlab.gait.study.design`); ``max_eigenvalue`` bounds the
-    restricted map's |eigenvalue| and ``clearance`` (m) lifts the swing point at mid-step."""
+    restricted map's |eigenvalue| and ``clearance`` (m) lifts the swing point at mid-step (None:
+    :func:`default_clearance`, 3 % of the leg; 0: no bound).
+
+    When the design's closed loop is not stable and its controller note names a remedy the
+    design applies itself (:func:`bipedlab.gait.study.remedy`) on an option left to its default
+    (``clearance`` None, or ``max_eigenvalue`` None), and ``retry``, the design is made once more
+    from the same initial guess with it: :data:`CLEARANCE_RETRY_FACTOR` times the clearance, or
+    the bound :data:`RETRY_MAX_EIGENVALUE`; one line through ``progress`` says so, and the
+    record's ``retried`` says what was retried and why (None when nothing was). An explicit
+    option is the caller's: a design with it is reported as it is."""
+    say = progress or (lambda m: None)
     s = robot.load(resolve(path), stance, swing, plane)
-    prob = hzd_study.problem(s.study, speed, cost, max_eigenvalue, clearance)
-    rec, vc, z_minus, met = hzd_study.design(s.study, prob, robot.initial_guess(s, prob), controller, cost, progress)
+    defaulted = clearance is None
+    clearance = default_clearance(s) if defaulted else float(clearance)
+    rec, vc, z_minus, met = _design(s, speed, cost, controller, progress, max_eigenvalue, clearance)
+    retried = None
+    fix = hzd_study.remedy(rec) if retry else None
+    if fix == "clearance" and defaulted:
+        retried = dict(clearance=CLEARANCE_RETRY_FACTOR * clearance)
+    elif fix == "max_eigenvalue" and max_eigenvalue is None:
+        retried = dict(max_eigenvalue=RETRY_MAX_EIGENVALUE)
+    if retried is not None:
+        retried["because"] = hzd_study.instability(rec)
+        retried["first_max_abs_eigenvalue"] = rec["max_abs_eigenvalue"]
+        retried["first_closed_loop_periodicity_error"] = rec["closed_loop_periodicity_error"]
+        what = ", ".join(f"--{k.replace('_', '-')} {retried[k]:g}" for k in ("clearance", "max_eigenvalue")
+                         if k in retried)
+        say(f"retrying the design with {what}: {retried['because']}")
+        rec, vc, z_minus, met = _design(s, speed, cost, controller, progress,
+                                        retried.get("max_eigenvalue", max_eigenvalue),
+                                        retried.get("clearance", clearance))
+    rec["retried"] = retried
     rec.update(_extra(s, path))
     if save:
         hzd_study.save_gait(s.study, save, vc, z_minus, rec)
@@ -81,7 +134,12 @@ def walk(path, gait, steps: int = 50, perturb: float = 0.0, controller: str = "i
 
 
 def summary_optimize(r: dict) -> str:
-    return f"{r['file']} (stance {r['stance']}, swing {r['swing']})\n" + hzd_study.summary_optimize(r)
+    out = f"{r['file']} (stance {r['stance']}, swing {r['swing']})\n" + hzd_study.summary_optimize(r)
+    t = r.get("retried")
+    if t:
+        what = ", ".join(f"{k} {t[k]:g}" for k in ("clearance", "max_eigenvalue") if k in t)
+        out += f"\nretried with {what}, because in the first design {t['because']}"
+    return out
 
 
 def summary_walk(r: dict) -> str:
