@@ -117,3 +117,12 @@ def test_stale_names_each_experiment_whose_stored_key_is_not_the_codes(tmp_path)
                               stale=["seven-link/walk", "seven-link/free-swing"]))
     assert line.splitlines()[-1] == ("the published report's results were computed from other source than the code "
                                      "at hand for 2 experiments (seven-link/walk, seven-link/free-swing): regenerate it")
+
+
+def test_the_published_report_is_the_codes():
+    """docs/report was produced from the code at hand: every experiment's stored key (full run
+    and quick run) is the key the source gives it. When this fails, regenerate the published
+    report (README, "The published report") and rerun the experiments named."""
+    stale = check.stale()
+    assert not stale, "docs/report is stale; rerun: " + ", ".join(
+        sorted({f"{s['paper']}/{s['experiment']}" for s in stale}))
