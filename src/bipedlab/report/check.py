@@ -134,7 +134,9 @@ def stale(folder=None) -> list[dict]:
     its results under): for the full run's ``report.json`` (full arguments) and the quick run's
     ``quick.json`` (quick arguments). Each entry: ``{report, paper, experiment, published,
     current}`` (``published`` None for an experiment the report lacks, ``current`` None for one
-    the code no longer has). Empty when the published page is the code's."""
+    the code no longer has). Empty when the published page is the code's. The keys are computed
+    for the JAX version the report records, so another JAX installed here does not make a page
+    computed from the same source stale."""
     from bipedlab.report import registry, runner
 
     folder = Path(folder) if folder is not None else default_folder()
@@ -144,13 +146,15 @@ def stale(folder=None) -> list[dict]:
         path = folder / name
         if not path.is_file():
             raise CheckError(f"no published report at {path}")
-        published = json.loads(decode_text(path.read_bytes())).get("papers", {})
+        data = json.loads(decode_text(path.read_bytes()))
+        published = data.get("papers", {})
         for key, paper in papers.items():
             stored = {e["name"]: e.get("cache_key") for e in published.get(key, {}).get("experiments", [])}
             for exp in paper.experiments:
                 args = exp.args(quick)
+                # the page's own JAX: the question is the source, not the JAX installed here
                 current = None if args is None else runner.cache_key(
-                    paper.key, exp.name, args, runner.robot_package(exp.run), paper.values)
+                    paper.key, exp.name, args, runner.robot_package(exp.run), paper.values, data.get("jax"))
                 if stored.get(exp.name) != current:
                     out.append(dict(report=name, paper=key, experiment=exp.name, published=stored.get(exp.name),
                                     current=current))

@@ -63,15 +63,17 @@ def _values_file(values: Optional[str]) -> tuple:
 
 
 def cache_key(paper: str, experiment: str, args: dict, package: Optional[str] = None,
-              values: Optional[str] = None) -> str:
+              values: Optional[str] = None, jax_version: Optional[str] = None) -> str:
     """The key of an experiment's stored result. ``package``: the robot package its function
     lives in (:func:`robot_package`), ``values``: the paper's values file; the key changes
-    with every file the result can depend on and with none of the others."""
+    with every file the result can depend on and with none of the others. ``jax_version``:
+    the key a run under that JAX would store (default: the JAX at hand)."""
     import jax
 
     source = results_hash(package, _values_file(values))
     text = json.dumps(dict(source=source, paper=paper, experiment=experiment, args=args,
-                           jax=jax.__version__, x64=bool(jax.config.jax_enable_x64)), sort_keys=True)
+                           jax=jax_version or jax.__version__, x64=bool(jax.config.jax_enable_x64)),
+                      sort_keys=True)
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
