@@ -165,14 +165,33 @@ def test_no_retry_of_an_explicit_option_or_a_stable_gait(stand_in, kw, verdict):
     assert calls[0][1] == pytest.approx(kw.get("clearance", 0.024))
 
 
-def test_remedy_reads_the_controller_note():
+def test_remedy_is_read_from_the_figures_not_the_note():
+    """The remedy follows from the record's figures (closed-loop periodicity error, controller,
+    restricted eigenvalue), whatever its note says; a step that reaches no touchdown (error not
+    finite, or null as a gait file stores it) names none, and neither does a stable design."""
     from bipedlab.gait import study as hs
 
-    base = dict(stable=False, controller_note="")
-    assert hs.remedy(dict(base, controller_note=f"x ({hs.REMEDY_CLEARANCE})")) == "clearance"
-    assert hs.remedy(dict(base, controller_note=f"x ({hs.REMEDY_BOUND})")) == "max_eigenvalue"
-    assert hs.remedy(dict(base, controller_note="no eps brings it within 0.05")) is None
-    assert hs.remedy(dict(stable=True, controller_note=f"x ({hs.REMEDY_CLEARANCE})")) is None
+    base = dict(stable=False, controller="iolin", closed_loop_periodicity_error=1e-7, restricted_eigenvalue=0.7,
+                controller_note=f"x ({hs.REMEDY_BOUND})")
+    assert hs.remedy(dict(base, closed_loop_periodicity_error=21.0)) == "clearance"
+    assert hs.remedy(dict(base, controller="pd", closed_loop_periodicity_error=21.0)) == "clearance"
+    assert hs.remedy(dict(base, restricted_eigenvalue=-1.2, controller_note="")) == "max_eigenvalue"
+    assert hs.remedy(dict(base, restricted_eigenvalue=1.2, controller="pd")) is None
+    assert hs.remedy(base) is None  # the note names a bound the figures do not call for
+    assert hs.remedy(dict(base, closed_loop_periodicity_error=None, restricted_eigenvalue=1.2)) is None
+    assert hs.remedy(dict(base, closed_loop_periodicity_error=float("inf"))) is None
+    assert hs.remedy(dict(base, stable=True, closed_loop_periodicity_error=21.0)) is None
+
+
+def test_the_note_names_the_remedy_the_figures_give():
+    """The controller note's remedy text and :func:`remedy_of` are one decision: for each case
+    the note of :func:`choose_controller`'s helpers names exactly the remedy remedy_of returns."""
+    from bipedlab.gait import study as hs
+
+    early = dict(status="ok", duration=0.3, residual=21.0)
+    assert hs.REMEDY_CLEARANCE in hs._not_periodic(early) and hs.remedy_of("iolin", 21.0, 0.7) == "clearance"
+    stuck = dict(status="no touchdown", duration=1.0, residual=float("inf"))
+    assert hs.REMEDY_CLEARANCE not in hs._not_periodic(stuck) and hs.remedy_of("iolin", float("inf"), 0.7) is None
 
 
 # ----------------------------------------------------------------------------- designs and walks

@@ -42,11 +42,6 @@ def _extra(s: robot.Setup, path) -> dict:
 #: the contact point, so the default asks twice that, 3 % of the leg: 2.4 cm for RABBIT's 0.8 m
 #: legs (whose shipped gait clears 5.4 cm on that parabola, so the bound is inactive there).
 CLEARANCE_FRACTION = 0.03
-#: A retried design's clearance, times the first design's.
-CLEARANCE_RETRY_FACTOR = 2.0
-#: The bound on the restricted map's |eigenvalue| a retried design takes when the first design's
-#: zero dynamics are unstable: a 1 % offset shrinks to a tenth within 11 steps.
-RETRY_MAX_EIGENVALUE = 0.8
 
 
 def default_clearance(s: robot.Setup) -> float:
@@ -66,35 +61,17 @@ def optimize(path, stance: str, swing: str, speed: float = 0.8, cost: str = "tor
     restricted map's |eigenvalue| and ``clearance`` (m) lifts the swing point at mid-step (None:
     :func:`default_clearance`, 3 % of the leg; 0: no bound).
 
-    When the design's closed loop is not stable and its controller note names a remedy the
-    design applies itself (:func:`bipedlab.gait.study.remedy`) on an option left to its default
-    (``clearance`` None, or ``max_eigenvalue`` None), and ``retry``, the design is made once more
-    from the same initial guess with it: :data:`CLEARANCE_RETRY_FACTOR` times the clearance, or
-    the bound :data:`RETRY_MAX_EIGENVALUE`; one line through ``progress`` says so, and the
-    record's ``retried`` says what was retried and why (None when nothing was). An explicit
-    option is the caller's: a design with it is reported as it is."""
-    say = progress or (lambda m: None)
+    When the design's closed loop is not stable and the remedy is on an option left to its
+    default (``clearance`` None, or ``max_eigenvalue`` None), and ``retry``, the design is made
+    once more from the same initial guess with it (:func:`bipedlab.gait.study.design_retrying`;
+    the record's ``retried`` says what and why). An explicit option is the caller's: a design
+    with it is reported as it is."""
     s = robot.load(resolve(path), stance, swing, plane)
     defaulted = clearance is None
     clearance = default_clearance(s) if defaulted else float(clearance)
-    rec, vc, z_minus, met = _design(s, speed, cost, controller, progress, max_eigenvalue, clearance)
-    retried = None
-    fix = hzd_study.remedy(rec) if retry else None
-    if fix == "clearance" and defaulted:
-        retried = dict(clearance=CLEARANCE_RETRY_FACTOR * clearance)
-    elif fix == "max_eigenvalue" and max_eigenvalue is None:
-        retried = dict(max_eigenvalue=RETRY_MAX_EIGENVALUE)
-    if retried is not None:
-        retried["because"] = hzd_study.instability(rec)
-        retried["first_max_abs_eigenvalue"] = rec["max_abs_eigenvalue"]
-        retried["first_closed_loop_periodicity_error"] = rec["closed_loop_periodicity_error"]
-        what = ", ".join(f"--{k.replace('_', '-')} {retried[k]:g}" for k in ("clearance", "max_eigenvalue")
-                         if k in retried)
-        say(f"retrying the design with {what}: {retried['because']}")
-        rec, vc, z_minus, met = _design(s, speed, cost, controller, progress,
-                                        retried.get("max_eigenvalue", max_eigenvalue),
-                                        retried.get("clearance", clearance))
-    rec["retried"] = retried
+    rec, vc, z_minus, met = hzd_study.design_retrying(
+        lambda bound, clear: _design(s, speed, cost, controller, progress, bound, clear),
+        clearance, max_eigenvalue, defaulted, retry, progress)
     rec.update(_extra(s, path))
     if save:
         hzd_study.save_gait(s.study, save, vc, z_minus, rec)
