@@ -12,7 +12,7 @@ from pathlib import Path
 import bipedlab
 from bipedlab.outputs import dumps_json
 from bipedlab.report import html, values
-from bipedlab.report.spec import Failed, Measured, Paper, Skip
+from bipedlab.report.spec import Failed, Measured, NotIdentifiable, Paper, Skip
 
 
 def _device() -> dict:
@@ -69,8 +69,10 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         facts = {}
         if isinstance(v, Measured):
             v, facts = v.value, dict(v.facts)
-        reason, failed = None, None
-        if isinstance(v, Skip):
+        reason, failed, unknown = None, None, None
+        if isinstance(v, NotIdentifiable):
+            unknown, v = v.reason, None
+        elif isinstance(v, Skip):
             reason, v = v.reason, None
         elif isinstance(v, Failed):
             failed, v = v.reason, None
@@ -86,7 +88,9 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         if reason is None and met is None:
             reason = (values.render(tol["why"], namespace, where + " tolerance.why") if tol["kind"] == "report"
                       else "not comparable under this tolerance")
-        word = values.verdict(met, self_check, tol.get("derivation"))
+        word = "not identifiable" if unknown is not None else values.verdict(met, self_check, tol.get("derivation"))
+        if unknown is not None:
+            reason = unknown
         if met is True:
             head = word
             why = f"{head} {values.tolerance_text(tol, unit, sign)}: {values.render(tol['why'], namespace, where + ' tolerance.why')}"
@@ -102,18 +106,24 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
                         tolerance_spec=dict(kind=tol["kind"], value=tol.get("value"), derivation=tol.get("derivation"),
                                             sign=sign),
                         tolerance_why=tol["why"], derivation=tol.get("derivation"), self_check=self_check,
+                        survival_only=bool(r.get("survival_only")),
                         met=met, agrees=None if self_check else met, verdict=word, why=why))
     return out, data
 
 
 def counts(rows: list) -> dict:
-    """How many rows match, agree or depart (numbers), hold or fail (claims), are self-checks
-    (met or not) or are not judged: each verdict class apart."""
+    """How many rows match, agree or depart (numbers), hold (of which how many on survival
+    alone) or fail (claims), are self-checks
+    (met or not), are not identifiable from the run's data or are not judged: each verdict class
+    apart."""
     v = [r["verdict"] for r in rows]
     return dict(rows=len(rows), matches=v.count("matches"), agrees=v.count("agrees"), departs=v.count("departs"),
-                claims_hold=v.count("claim holds"), claims_fail=v.count("claim fails"),
+                claims_hold=v.count("claim holds"),
+                claims_hold_survival_only=sum(r["verdict"] == "claim holds" and bool(r.get("survival_only")) for r in rows),
+                claims_fail=v.count("claim fails"),
                 self_checks=v.count("self-check met") + v.count("self-check not met"),
-                self_checks_not_met=v.count("self-check not met"), not_judged=v.count("not judged"))
+                self_checks_not_met=v.count("self-check not met"), not_identifiable=v.count("not identifiable"),
+                not_judged=v.count("not judged"))
 
 
 def _copy_files(res, paper_key: str, out_dir: Path) -> dict:

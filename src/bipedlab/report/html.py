@@ -20,6 +20,7 @@ tr.departs td.verdict{background:#fde7e4;color:#8e1c0e;font-weight:600}
 tr.claimholds td.verdict{background:#eef7ec;color:#2e6b2a}
 tr.claimfails td.verdict{background:#fdeeea;color:#8e1c0e}
 tr.notjudged td.verdict{background:#f1f1f1;color:#555}
+tr.notidentifiable td.verdict{background:#f5efe2;color:#6b4e12;font-style:italic}
 tr.selfcheck td.verdict{background:#e8eef8;color:#1f3f73;font-style:italic}
 .src{color:#666;font-size:.85em}.why{font-size:.88em}
 figure{display:inline-block;margin:.5em 1em .8em 0;vertical-align:top;max-width:540px}
@@ -50,18 +51,25 @@ def _verdict(row) -> tuple[str, str]:
     """(CSS class, words) of a row's verdict; a self-check is shown as one, never as agreement."""
     v = row.get("verdict") or {True: "agrees", False: "departs"}.get(row.get("agrees"), "not judged")
     cls = {"matches": "matches", "agrees": "agrees", "departs": "departs", "claim holds": "claimholds",
-           "claim fails": "claimfails", "not judged": "notjudged"}.get(v, "selfcheck")
+           "claim fails": "claimfails", "not identifiable": "notidentifiable",
+           "not judged": "notjudged"}.get(v, "selfcheck")
     return cls, v
 
 
 def counts_text(c: dict) -> str:
     """'N rows: m match the paper's printed precision, a agree within a band, d depart; claims:
-    h hold, f fail; s self-checks (k not met); n not judged.' (each class apart)"""
+    h hold (v of them on survival alone), f fail; s self-checks (k not met); u not identifiable
+    from the data; n not judged.' (each class apart; the survival and not-identifiable clauses
+    only where there are such rows)"""
     sc = c.get("self_checks", 0)
+    ni = c.get("not_identifiable", 0)
     return (f'{c["rows"]} rows: {c.get("matches", 0)} match the paper\'s printed precision, {c["agrees"]} agree '
-            f'within a band, {c["departs"]} depart; claims: {c.get("claims_hold", 0)} hold, '
+            f'within a band, {c["departs"]} depart; claims: {c.get("claims_hold", 0)} hold'
+            + (f' ({c["claims_hold_survival_only"]} of them on survival alone)' if c.get("claims_hold_survival_only")
+               else '') + ', '
             f'{c.get("claims_fail", 0)} fail; {sc} self-check{"s" if sc != 1 else ""} '
-            f'({c.get("self_checks_not_met", 0)} not met); {c["not_judged"]} not judged.')
+            f'({c.get("self_checks_not_met", 0)} not met); '
+            + (f'{ni} not identifiable from the data; ' if ni else '') + f'{c["not_judged"]} not judged.')
 
 
 def _table(rows: list) -> str:
@@ -69,6 +77,8 @@ def _table(rows: list) -> str:
            '<th>verdict</th><th>tolerance</th><th>why</th></tr></thead><tbody>']
     for r in rows:
         cls, word = _verdict(r)
+        if r.get("survival_only"):
+            word += '<br><span class="src">survival only</span>'
         out.append(f'<tr class="{cls}" id="row-{escape(r["id"])}"><td>{escape(r["quantity"])}</td>'
                    f'<td>{escape(_val(r["paper"], r["unit"]))}<br><span class="src">{escape(r["source"])}</span></td>'
                    f'<td class="num">{escape(_val(r["bipedlab"], r["unit"]))}</td><td class="verdict">{word}</td>'

@@ -71,6 +71,16 @@ class Failed:
 
 
 @dataclass(frozen=True)
+class NotIdentifiable:
+    """A row value the run's data cannot determine (an estimate whose 1-sigma error from the data
+    is past the study's bar for an identified parameter, so it stays where the fit started): the
+    row is neither met nor departed, its verdict is *not identifiable*, and ``reason`` gives the
+    1-sigma error that shows it."""
+
+    reason: str
+
+
+@dataclass(frozen=True)
 class Measured:
     """A row's simulated value with the numbers of the run its texts cite: ``{name}`` in the
     row's ``tolerance.why`` or ``departs_why`` is filled from ``facts`` (beside ``value``,

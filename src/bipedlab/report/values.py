@@ -36,6 +36,11 @@ sign and a size, kind ``factor``, for a number the paper gives as a size or a ro
 ``claim`` (an explicit test of a stated claim: a bound, a range or a yes/no) or ``own_target``
 (a self-check: the target the method sets itself). ``tolerance.why`` gives the arithmetic.
 
+``survival_only`` (true), on a claim row (derivation ``claim``) whose test is only that the
+robot did not fall (or that a share of runs did not): the row says so beside its verdict and
+the counts line counts such claims apart, since surviving is not the property the paper
+states (a gait "stabilised", "very little effect").
+
 ``sign`` ("+" or "-"), where the paper states a direction: the value must have that sign to
 agree, and no band may reach across zero. ``self_check``, a sentence, marks a row where the
 method checks itself (against its own targets on a synthetic robot, a constraint it imposes, or
@@ -71,13 +76,14 @@ REQUIRED = ("id", "quantity", "paper", "source", "tolerance")
 #: the verdict classes: a number within the paper's printed precision *matches*; within a band
 #: derived from a spread or a size it *agrees*; outside either it *departs*; a stated claim
 #: (a bound, a range or a yes/no, derivation ``claim``) *holds* or *fails*; a self-check is met
-#: or not; a row the run did not measure, or that the paper gives no number for, is not judged.
-#: Numeric agreement, claims and self-checks are counted apart.
+#: or not; a parameter the run's data cannot determine (its 1-sigma error from the data past the
+#: study's bar) is not identifiable; a row the run did not measure, or that the paper gives no
+#: number for, is not judged. Numeric agreement, claims and self-checks are counted apart.
 VERDICTS = ("matches", "agrees", "departs", "claim holds", "claim fails", "self-check met", "self-check not met",
-            "not judged")
+            "not identifiable", "not judged")
 #: the counts of a paper's rows (:func:`bipedlab.report.build.counts`), in the counts line's order
-COUNT_KEYS = ("rows", "matches", "agrees", "departs", "claims_hold", "claims_fail", "self_checks",
-              "self_checks_not_met", "not_judged")
+COUNT_KEYS = ("rows", "matches", "agrees", "departs", "claims_hold", "claims_hold_survival_only", "claims_fail",
+              "self_checks", "self_checks_not_met", "not_identifiable", "not_judged")
 
 
 class ValuesError(ValueError):
@@ -291,6 +297,8 @@ def check(data: dict, label: str = "paper values") -> dict:
                 raise ValuesError(f"{where}: 'sign' must be '+' or '-'")
             if _number(row["paper"]) and row["paper"] * SIGNS[row["sign"]] <= 0:
                 raise ValuesError(f"{where}: 'sign' {row['sign']} is not the sign of the paper's {row['paper']!r}")
+        if "survival_only" in row and (row["survival_only"] is not True or row["tolerance"].get("derivation") != "claim"):
+            raise ValuesError(f"{where}: 'survival_only' is true on a claim row (derivation 'claim') or absent")
         if "self_check" in row:
             if not isinstance(row["self_check"], str) or not row["self_check"].strip():
                 raise ValuesError(f"{where}: 'self_check' must say in a sentence what the method checks itself against")

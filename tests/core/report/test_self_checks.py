@@ -52,8 +52,8 @@ def test_self_checks_are_counted_apart_and_never_as_agreement(report):
     rep, _ = report
     p = rep["papers"]["toy"]
     rows = {r["id"]: r for r in p["rows"]}
-    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, claims_hold=1, claims_fail=0, self_checks=3,
-                               self_checks_not_met=1, not_judged=1)
+    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, claims_hold=1, claims_hold_survival_only=0, claims_fail=0, self_checks=3,
+                               self_checks_not_met=1, not_identifiable=0, not_judged=1)
     for i in ("kt", "ground", "fit"):
         assert rows[i]["agrees"] is None and rows[i]["self_check"]
     assert rows["kt"]["met"] is True and rows["kt"]["verdict"] == "self-check met"
@@ -120,3 +120,55 @@ def test_a_failed_experiment_departs_with_its_reason_and_a_shown_row_stays_unjud
     assert got["shown"]["verdict"] == "not judged" and got["shown"]["why"] == "fell after 3 touchdowns"
     assert got["later"]["verdict"] == "not judged"
     assert rep["papers"]["toy"]["counts"]["departs"] == 1
+
+
+def test_a_parameter_the_data_cannot_determine_is_not_identifiable(tmp_path):
+    """A self-check row whose parameter the run's data do not determine (NotIdentifiable, with
+    its 1-sigma error) is neither met nor departed: its own class, counted apart, shown with
+    the reason, and named in the counts line."""
+    from bipedlab.report import NotIdentifiable
+
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(dict(paper="toy", title="Toy", citation="c", rows=_rows())))
+    measured = dict(MEASURED, ground=NotIdentifiable("the hop does not determine it (1-sigma 253%)"))
+    paper = Paper("toy", "Toy", str(path), (), lambda r, q: dict(measured))
+    rep = build.build([paper], {"toy": [Result("toy", "run", "toy", {}, dict(x=1))]}, quick=True,
+                      out_dir=tmp_path / "out", wall_s=0.0, cpu_s=0.0)
+    p = rep["papers"]["toy"]
+    row = {r["id"]: r for r in p["rows"]}["ground"]
+    assert row["verdict"] == "not identifiable" and row["met"] is None and row["agrees"] is None
+    assert row["why"] == "the hop does not determine it (1-sigma 253%)" and row["bipedlab"] is None
+    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, claims_hold=1, claims_hold_survival_only=0, claims_fail=0, self_checks=2,
+                               self_checks_not_met=0, not_identifiable=1, not_judged=1)
+    assert set(p["counts"]) == set(values.COUNT_KEYS)
+    page = (tmp_path / "out" / "index.html").read_text()
+    assert page.count('<tr class="notidentifiable"') == 1
+    assert "2 self-checks (0 not met); 1 not identifiable from the data; 1 not judged." in page
+
+
+def test_a_survival_only_claim_says_so_and_is_counted_apart(tmp_path):
+    """A claim whose test is only that the robot did not fall (``survival_only``) keeps its
+    verdict class, is marked in its row and on the page, and the counts line says how many
+    holding claims rest on survival alone; the flag belongs to claim rows only."""
+    rows = _rows()
+    rows[5] = dict(rows[5], survival_only=True)  # hops: 'no fall'
+    rows[4] = dict(rows[4], survival_only=True)  # torso travel: a bound, flagged here to be counted
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(dict(paper="toy", title="Toy", citation="c", rows=rows)))
+    paper = Paper("toy", "Toy", str(path), (), lambda r, q: dict(MEASURED, hops=95))
+    rep = build.build([paper], {"toy": [Result("toy", "run", "toy", {}, dict(x=1))]}, quick=True,
+                      out_dir=tmp_path / "out", wall_s=0.0, cpu_s=0.0)
+    p = rep["papers"]["toy"]
+    got = {r["id"]: r for r in p["rows"]}
+    assert got["hops"]["verdict"] == "claim holds" and got["hops"]["survival_only"] is True
+    assert got["speed"]["survival_only"] is False
+    assert p["counts"]["claims_hold"] == 2 and p["counts"]["claims_hold_survival_only"] == 2
+    assert set(p["counts"]) == set(values.COUNT_KEYS)
+    page = (tmp_path / "out" / "index.html").read_text()
+    assert page.count("survival only</span>") == 2
+    assert "claims: 2 hold (2 of them on survival alone), 0 fail;" in page
+    bad = dict(rows[0], survival_only=True)  # a self-check, not a claim
+    with pytest.raises(values.ValuesError, match="survival_only"):
+        values.check(dict(paper="p", title="t", citation="c", rows=[bad]))
+    with pytest.raises(values.ValuesError, match="survival_only"):
+        values.check(dict(paper="p", title="t", citation="c", rows=[dict(rows[5], survival_only="yes")]))

@@ -97,7 +97,7 @@ def test_every_verdict_of_a_built_report_follows_from_its_numbers(key, tmp_path)
         out = json.loads((tmp_path / f"r{k}" / "report.json").read_text())["papers"][key]
         assert out["counts"] == report["papers"][key]["counts"]
         tally = dict(matches=0, agrees=0, departs=0, claims_hold=0, claims_fail=0, self_checks=0,
-                     self_checks_not_met=0, not_judged=0)
+                     self_checks_not_met=0, not_identifiable=0, not_judged=0, claims_hold_survival_only=0)
         for src, got in zip(rows, out["rows"]):
             assert got["id"] == src["id"]
             v = chosen[src["id"]]
@@ -120,6 +120,8 @@ def test_every_verdict_of_a_built_report_follows_from_its_numbers(key, tmp_path)
             tally[{"matches": "matches", "agrees": "agrees", "departs": "departs", "claim holds": "claims_hold",
                    "claim fails": "claims_fail", "not judged": "not_judged"}.get(word, "self_checks")] += 1
             tally["self_checks_not_met"] += word == "self-check not met"
+            assert got["survival_only"] is bool(src.get("survival_only"))
+            tally["claims_hold_survival_only"] += word == "claim holds" and bool(src.get("survival_only"))
         assert out["counts"] == dict(rows=len(rows), **tally)
         page = (tmp_path / f"r{k}" / "index.html").read_text()
         for cls, n in (("selfcheck", tally["self_checks"]), ("matches", tally["matches"]), ("agrees", tally["agrees"]),

@@ -2,7 +2,7 @@
 construction behind the self-check bands, and the rows that must depart (fast: no simulation)."""
 import pytest
 
-from bipedlab.report import Failed, Measured, values
+from bipedlab.report import Failed, Measured, NotIdentifiable, values
 from bipedlab.robots.mabel import reproduce as R
 from bipedlab.robots.mabel.sysid import params as P
 
@@ -83,21 +83,26 @@ def _param(name, group, true, est, identified=True, rel_std=None):
                 identified=identified, rel_std=rel_std)
 
 
-def test_an_unidentified_hop_parameter_never_meets_its_self_check():
+def test_an_unidentified_hop_parameter_is_not_identifiable_never_met():
     """K_d1 3 % off its truth only because the truth was drawn near the fit's start: its Table VI
-    row and its group's row depart; the identified Kd_B keeps its value."""
+    row and its group's row are *not identifiable* (never met, never departed), each with the
+    1-sigma errors from the data that show it; the identified Kd_B keeps its value."""
     params = [_param("spring_d", "hard_stop", 1.5, 1.53, True, 0.008),
               _param("kd1", "hard_stop", 103.0, 100.0, False, 1e9),
               _param("kvd1", "hard_stop", 1000.0, 1040.0, False, 20.0),
               _param("kvd2", "hard_stop", 50.0, 51.0, False, 60.0)]
     out = R.measure_identification({"identify": {"parameters": params}, "hop": None, "hop-no-update": None}, True)
-    assert isinstance(out["table6_kd1"], Failed) and isinstance(out["sysid_hard_stop"], Failed)
-    assert "3%" in out["table6_kd1"].reason
+    assert isinstance(out["table6_kd1"], NotIdentifiable) and isinstance(out["sysid_hard_stop"], NotIdentifiable)
+    assert "3%" in out["table6_kd1"].reason and ">1000%" in out["table6_kd1"].reason
+    assert "K_d1 >1000%, K_vd1 >1000%, K_vd2 >1000%" in out["sysid_hard_stop"].reason
+    assert "Kd_B" not in out["sysid_hard_stop"].reason  # the unidentified ones only: Kd_B's 2 % not in it
     assert isinstance(out["table6_spring_d"], Measured) and out["table6_spring_d"].value == 1.53
+    for p in params[1:]:  # all identified: the group's row is measured, its largest error
+        p["identified"], p["rel_std"] = True, 0.05
     params[2]["estimate"] = 600.0
     params[2]["rel_error"] = 0.4
     out = R.measure_identification({"identify": {"parameters": params}, "hop": None, "hop-no-update": None}, True)
-    assert out["sysid_hard_stop"].value == pytest.approx(0.4)  # the unidentified ones only: Kd_B's 2 % not in it
+    assert out["sysid_hard_stop"].value == pytest.approx(0.4)
 
 
 def test_a_robot_that_does_not_fall_without_the_update_departs():

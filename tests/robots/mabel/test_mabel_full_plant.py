@@ -138,9 +138,6 @@ def test_paper_design_gap_is_at_least_twofold():
     assert r["swing_spring_peak_deg"] > 1.0
 
 
-#: eq. 42's eps at which the outer loop puts PD + FF's 3.5 N m/rad on the stance leg-shape motor
-#: at paper-nominal's touchdown state (controllers.outer_loop_stiffness: 0.42 N m/rad at 0.05)
-EPS_PD_STIFFNESS = 0.0173
 
 
 def test_exact_sensing_on_the_compliant_ground_reads_predicted_rates_at_the_touchdown():
@@ -169,13 +166,16 @@ def test_exact_sensing_on_the_compliant_ground_reads_predicted_rates_at_the_touc
 
 @pytest.mark.slow
 def test_eq42_at_pd_stiffness_with_exact_sensing_walks_the_full_plant():
-    """eq. 42 with eps at PD + FF's stiffness on the stance leg-shape motor, exact sensing,
-    paper-nominal on the 13-DoF plant: 8 steps without a fall, the stance leg shape tracked
-    better than PD + FF on the encoders (measured 2.12 against 6.84 deg rms). Before the
-    touchdown sample read predicted rates it lifted the stance toe and fell in the first step."""
+    """eq. 42 at the shipped eps (controllers.EPS, PD + FF's stiffness on the stance leg-shape
+    motor), exact sensing, paper-nominal on the 13-DoF plant: 8 steps without a fall, the stance
+    leg shape tracked better than PD + FF on the encoders (measured 2.12 against 6.84 deg rms).
+    Before the touchdown sample read predicted rates it lifted the stance toe and fell in the
+    first step."""
+    from bipedlab.robots.mabel.walking import controllers as ctl
+
     vc, g, rec = wm.load_gait("paper-nominal")
-    loaded = (vc, g.replace(eps=jnp.asarray(EPS_PD_STIFFNESS)), rec)
-    s, log, _ = wm.run_walk("paper-nominal", "iolin", 8, sensing="ideal", plant="full", loaded=loaded)
+    assert float(g.eps) == ctl.EPS
+    s, log, _ = wm.run_walk("paper-nominal", "iolin", 8, sensing="ideal", plant="full", loaded=(vc, g, rec))
     r = wm.metrics(s, log)
     pd = wm.walk("paper-nominal", "pdff", 8, plant="full")
     assert r["fell"] is False and r["steps_completed"] == 8

@@ -4,12 +4,15 @@ The outer loop v = -(Kp/eps^2) y - (Kd/eps) y-dot gives every output the same po
 LgLfh^-1 that is a torque per rad of error proportional to the output's effective inertia. The
 stance leg-shape output is a motor angle (rotor and pulley inertia, about 1e-3 kg m^2), so with
 eps = 0.05 its own motor sees about 0.4 N m/rad, an eighth of PD + feedforward's 3.5 N m/rad:
-the I/O-linearising loop is the softer one on that output, whatever the model mismatch it meets.
+the I/O-linearising loop was the softer one on that output, whatever the model mismatch it
+meets. The shipped eps (controllers.EPS) is the largest at which no output's own motor gets less
+than pdff's kp on any shipped gait.
 """
 from __future__ import annotations
 
 import jax.numpy as jnp
 import numpy as np
+import pytest
 
 import bipedlab  # noqa: F401
 from bipedlab.robots.mabel.walking import constraints as vcm
@@ -24,14 +27,30 @@ def _at_touchdown(gait="paper-nominal"):
     return A, g
 
 
-def test_stance_leg_shape_motor_loop_is_softer_than_pd_at_default_eps():
+def test_stance_leg_shape_motor_loop_was_softer_than_pd_at_eps_005():
     A, g = _at_touchdown()
+    g = g.replace(eps=jnp.asarray(0.05))
     k, d = (np.asarray(v) for v in ctl.outer_loop_stiffness(A, g))
     pd = np.asarray(g.kp) * np.asarray(g.signs)
     assert 0.2 < k[0] < 1.0, k          # mLS_st: N m per rad of motor angle
     assert k[0] < pd[0] / 5.0, (k, pd)
     assert np.all(np.sign(k) == np.sign(pd)), (k, pd)  # each motor pushes its output back
     assert np.allclose(d, k * (g.kd_io / g.kp_io) * g.eps)
+
+
+@pytest.mark.parametrize("gait", ["nominal", "paper-nominal", "efficient", "paper-efficient", "fast"])
+def test_default_eps_is_nowhere_softer_than_pd_and_the_stance_motor_binds(gait):
+    """At controllers.EPS every output's own motor gets at least pdff's kp at the gait's
+    touchdown state, and the stance leg-shape motor is the binding one: 1 % more eps would
+    leave it softer than pdff (eps enters as 1/eps^2), while the others keep over 1.5 times."""
+    A, g = _at_touchdown(gait)
+    assert float(g.eps) == ctl.EPS
+    k = np.asarray(ctl.outer_loop_stiffness(A, g)[0])
+    pd = np.asarray(g.kp) * np.asarray(g.signs)
+    ratio = k / pd
+    assert np.all(ratio >= 1.0), ratio
+    assert ratio[0] < 1.01 ** 2, ratio
+    assert np.all(ratio[1:] > 1.5), ratio
 
 
 def test_stiffness_scales_as_inverse_eps_squared_and_ignores_output_scaling():

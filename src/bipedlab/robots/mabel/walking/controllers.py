@@ -153,10 +153,20 @@ def output_signs(m, vc, z):
     return np.sign(np.asarray(A)[np.arange(4), list(ACTUATOR_OF_OUTPUT)])
 
 
+#: eq. 42's eps (the paper gives none): the largest at which the outer loop is nowhere softer than
+#: PD + FF, i.e. puts at least pdff's kp on every output's own motor (:func:`outer_loop_stiffness`)
+#: at every shipped gait's touchdown state. The stance leg-shape motor binds (a motor angle of
+#: about 1e-3 kg m^2 effective inertia; 3.5 N m/rad needs 0.01738-0.01741 on the five gaits); the
+#: other outputs then get 1.6-6.2 times pdff's stiffness. At the earlier 0.05 that motor saw an
+#: eighth of pdff's (measured, 13-DoF plant, paper-nominal, 100 steps on the encoders: stance leg
+#: shape 12.2 deg rms against pdff's 6.8; at this eps 2.2).
+EPS = 0.0173
+
+
 def default_gains(beta, bounds, signs, limit=None) -> Gains:
     """PD gains (tuned on the nominal gait: stable Poincaré map, small tracking error) and the
-    eq. 42 gains eps = 0.05, Kp = 1, Kd = 2 (a double pole at -1/eps)."""
+    eq. 42 gains eps = :data:`EPS`, Kp = 1, Kd = 2 (a double pole at -1/eps)."""
     f = lambda v: jnp.asarray(v, float)  # noqa: E731
     lim = f([30.0, 55.0, 30.0, 55.0] if limit is None else limit)
-    return Gains(kp=f([3.5, 45.0, 3.5, 60.0]), kd=f([0.05, 1.2, 0.05, 3.0]), eps=f(0.05), kp_io=f(1.0),
+    return Gains(kp=f([3.5, 45.0, 3.5, 60.0]), kd=f([0.05, 1.2, 0.05, 3.0]), eps=f(EPS), kp_io=f(1.0),
                  kd_io=f(2.0), beta=f(beta), beta_bounds=f(bounds), signs=f(signs), limit=lim)

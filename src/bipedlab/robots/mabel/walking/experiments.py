@@ -34,6 +34,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
@@ -494,6 +495,10 @@ FAST_LEAN_STEPS = 30
 FAST_TARGET_MPS = 1.5
 #: velocity estimation of the fast run: encoders with the model-based observer
 FAST_SENSING = "observer"
+#: the controller of Exp. 5 (Sec. V-E): the decentralised zero-dynamics controller
+FAST_CONTROLLER = "decentralized"
+#: steps whose mean speed is the walk's start speed (the paper: "started walking at around 1.15 m/s")
+FAST_START_STEPS = 3
 
 
 def _after_ramp(r, ramp):
@@ -510,17 +515,21 @@ def _contact(r):
 def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
     """Exp. 5 as the experimenters did it: the nominal (Exp. 1) constraints, the torso leaned
     forward step by step (:func:`~bipedlab.robots.mabel.walking.constraints.lean`, FAST_LEAN_STEPS increments)
-    under the full compliant-HZD controller, then ``steps`` (default 100) more steps, with the
-    14-bit encoders read through the model-based velocity observer. Alongside: the same run
-    with the plain filtered difference (whose quantisation chatter can unload the stance toe
-    at this speed: see its ``toe_pulled`` and ``min_normal_force_n``), the decentralised
-    variant, and the optimised ``fast`` gait (which falls within a few steps); ``comparisons``
-    False leaves those out. ``lean_steps``: the increments of the lean."""
+    under the decentralised zero-dynamics controller (:data:`FAST_CONTROLLER`, Sec. V-E), then
+    ``steps`` (default 100) more steps, with the 14-bit encoders read through the model-based
+    velocity observer; ``start_speed_mps`` is the mean of the first FAST_START_STEPS steps,
+    beside the paper's 1.15 m/s. Alongside: the same run with the plain filtered difference
+    (whose quantisation chatter can unload the stance toe at this speed: see its ``toe_pulled``
+    and ``min_normal_force_n``), the full I/O-linearising controller, and the optimised ``fast``
+    gait (which falls within a few steps); ``comparisons`` False leaves those out.
+    ``lean_steps``: the increments of the lean."""
     n = steps or 100
     total = lean_steps + n
     lean = dict(lean_deg=FAST_LEAN_DEG, lean_steps=lean_steps)
-    r = _walk("nominal", "iolin", total, progress, out=out, sensing=FAST_SENSING, **lean)
+    r = _walk("nominal", FAST_CONTROLLER, total, progress, out=out, sensing=FAST_SENSING, **lean)
     r.update(_after_ramp(r, lean_steps))
+    first = r["speed_per_step"][:FAST_START_STEPS]
+    r["start_speed_mps"] = float(np.mean(first)) if len(first) == FAST_START_STEPS else None
     r.update(experiment="fast", within_torque_limits=bool(all(
         t <= c + 1e-9 for t, c in zip(r["peak_torques_nm"], [30.0, 55.0, 30.0, 55.0]))),
         target_met=bool(not r["fell"] and r["steps_after_lean"] >= n and r["speed_after_lean_mps"] >= FAST_TARGET_MPS),
@@ -528,12 +537,12 @@ def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
     if not comparisons:
         return r
     comp = {}
-    for key, controller, sensing in (("iolin_filtered_difference", "iolin", "encoders"),
-                                     ("decentralized_observer", "decentralized", FAST_SENSING)):
+    for key, controller, sensing in (("decentralized_filtered_difference", FAST_CONTROLLER, "encoders"),
+                                     ("iolin_observer", "iolin", FAST_SENSING)):
         d = _walk("nominal", controller, total, progress, sensing=sensing, **lean)
         comp[key] = dict(fell=d["fell"], steps_completed=d["steps_completed"], **_after_ramp(d, lean_steps),
                          **_contact(d))
-    g = _walk("fast", "iolin", 10, progress, sensing=FAST_SENSING)
+    g = _walk("fast", FAST_CONTROLLER, 10, progress, sensing=FAST_SENSING)
     comp["optimised_fast_gait"] = dict(designed_speed_mps=g["designed_speed_mps"], fell=g["fell"],
                                        fell_at_s=g["fell_at_s"], steps_completed=g["steps_completed"], **_contact(g))
     r["comparison"] = comp
@@ -584,17 +593,46 @@ GAP_GAITS = ("paper-nominal", "paper-efficient", "nominal", "efficient")
 GAP_PAPER = {"paper-nominal": dict(designed=0.0452, realised=0.15), "paper-efficient": dict(designed=0.0385, realised=0.14)}
 
 
-def full_plant(steps, progress, out, gaits=GAP_GAITS):
+#: the headline comparison on the 13-DoF plant (Sec. V-D, Exps. 1, 4, 5): these gaits under the
+#: eq. 42 controllers, beside their PD + feedforward runs of :func:`full_plant`
+HEADLINE_GAITS = ("paper-nominal", "nominal")
+HEADLINE_CONTROLLERS = ("iolin", "decentralized")
+#: what a headline run keeps of its walk record
+HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mps", "designed_speed_mps", "cmt",
+                 "tracking_rms_deg", "tracking_peak_deg", "peak_torques_nm", "toe_pulled", "min_normal_force_n")
+
+
+def _joint_side(x: dict) -> dict:
+    """The stance leg-shape errors on the joint side: the motor-side figures over the leg-shape
+    gear ratio (the paper's conversion, Sec. V-D)."""
+    return dict(mLS_st_rms_joint_deg=x["tracking_rms_deg"]["mLS_st"] / tb.GEAR_LS,
+                mLS_st_peak_joint_deg=x["tracking_peak_deg"]["mLS_st"] / tb.GEAR_LS)
+
+
+def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS):
     """The design-to-robot gap (Sections V-A, V-C, VI-C): each gait under PD + feedforward on
     encoders at 1 kHz on the 13-DoF plant (:mod:`.full_plant`), beside its designed c_mt; Fig.
-    20 for the first gait when ``out`` is given."""
-    runs = {}
+    20 for the first gait when ``out`` is given. The headline comparison (Sec. V-D): each gait
+    of ``headline`` also under the compliant zero-dynamics controller (eq. 42) and its
+    decentralised form, on the same plant and encoders (``hzd_runs[gait][controller]``; the
+    stance leg-shape errors also on the joint side)."""
+    runs, hzd = {}, {}
+    n = steps or 100
     for k, g in enumerate(gaits):
         if progress:
             progress(f"{g} on the 13-DoF plant")
-        runs[g] = wm.walk(g, "pdff", steps or 100, plant="full", out=f"{out}/{g}" if out and k == 0 else None)
-    return dict(experiment="full-plant", controller="pdff", sensing="encoders", steps=steps or 100, runs=runs,
-                paper=GAP_PAPER)
+        runs[g] = wm.walk(g, "pdff", n, plant="full", out=f"{out}/{g}" if out and k == 0 else None)
+    for g in headline:
+        hzd[g] = {}
+        for c in ("pdff",) + HEADLINE_CONTROLLERS:
+            x = runs.get(g) if c == "pdff" else None
+            if x is None:
+                if progress:
+                    progress(f"{g} under {c} on the 13-DoF plant")
+                x = wm.walk(g, c, n, plant="full")
+            hzd[g][c] = dict({k: x[k] for k in HEADLINE_KEYS}, **_joint_side(x))
+    return dict(experiment="full-plant", controller="pdff", sensing="encoders", steps=n, runs=runs,
+                hzd_runs=hzd, paper=GAP_PAPER)
 
 
 _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tracking,
@@ -614,6 +652,13 @@ def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
 
 def summary_full_plant(r: dict) -> str:
     lines = [f"13-DoF plant, PD + feedforward on encoders, {r['steps']} steps per gait:"]
+    for g, by in (r.get("hzd_runs") or {}).items():
+        lines.append(f"  {g}, stance leg-shape motor rms / peak (deg), torso rms (deg), per controller:")
+        for c, x in by.items():
+            state = f"FELL in step {x['steps_completed'] + 1}; " if x["fell"] else ""
+            lines.append(f"    {c:>13}: {state}{x['tracking_rms_deg']['mLS_st']:.2f} / {x['tracking_peak_deg']['mLS_st']:.1f}"
+                         f" (joint side {x['mLS_st_rms_joint_deg']:.3f} / {x['mLS_st_peak_joint_deg']:.2f}), torso "
+                         f"{x['tracking_rms_deg']['Tor']:.2f}, peak torques {[round(t, 1) for t in x['peak_torques_nm']]}")
     for g, x in r["runs"].items():
         paper = r["paper"].get(g)
         state = (f"FELL in step {x['steps_completed'] + 1}" if x["fell"] else
@@ -634,6 +679,8 @@ def summary(r: dict) -> str:
             text += (f"\nafter the {FAST_LEAN_DEG:.1f} deg lean ({FAST_LEAN_STEPS} steps): {r['steps_after_lean']} steps at "
                      f"{r['speed_after_lean_mps']:.3f} m/s (slowest step {r['min_step_speed_after_lean_mps']:.3f}); "
                      f"paper: sustained 1.5 m/s, top 1.52")
+            if r.get("start_speed_mps") is not None:
+                text += f"\nstart speed (first {FAST_START_STEPS} steps) {r['start_speed_mps']:.3f} m/s; paper: about 1.15"
             for k, x in r["comparison"].items():
                 text += f"\n{k}: {x}"
         if name == "efficient":
