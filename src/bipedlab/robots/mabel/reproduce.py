@@ -563,8 +563,9 @@ PAPERS = [
           animations=(Figure("nominal", "walk.html", "MABEL walking the nominal gait under PD + feedforward (logged "
                              "trajectory, stick figure; stance leg blue)", kind="animation"),),
           notes=("The gait-design rows are the gaits optimize mabel designs on the paper's design model (rigid cables, "
-                 "no motor friction or spring damping; shipped as paper-nominal and paper-efficient). Exps. 1-5 and "
-                 "Table I walk the shipped nominal and efficient gaits, designed with motor friction and spring damping "
-                 "in the zero dynamics, on the stance model; the full-plant rows walk the paper-model gaits on the "
-                 "13-DoF model (cable stretch, compliant ground).",)),
+                 "no motor friction or spring damping; shipped as paper-nominal and paper-efficient). Exps. 1, 2, 4, 5 "
+                 "and Table I walk the shipped nominal gait, designed with motor friction and spring damping in the zero "
+                 "dynamics, on the stance model; Exp. 3 walks paper-efficient (the full-model efficient gait's swing toe "
+                 "strikes the ground behind the stance toe); the full-plant rows walk the paper-model gaits, and for "
+                 "the headline comparison nominal too, on the 13-DoF model (cable stretch, compliant ground).",)),
 ]
