@@ -76,43 +76,45 @@ def test_exp4_saturates_at_the_papers_limits_and_never_exceeds_them():
     """Exp. 4 (4 steps, the nominal gait under the compliant-HZD controller on 14-bit encoders
     at 1 kHz) with the paper's saturation, 6 N m on the leg-angle motors and 10 N m on the
     leg-shape motors: the stance leg-shape motor spends samples at its limit (the paper's Fig.
-    13b: 'significant saturation'; here a small fraction, about 0.1 %, of the samples, around
-    the touchdowns), no torque ever exceeds its limit (clipped in the controller: exact up to
-    rounding, 1e-9 N m), and the same run at the drivetrain's 30 / 55 N m asks for more than
-    6 / 10 N m on the stance motors (so the limits bind: measured 6.8 and 10.9 N m). Both walk
-    without a fall; the speed over these first steps is within 10 % of the paper's 0.9 m/s
-    (measured 0.825 m/s: the first steps start from the designed 0.8 m/s fixed point) and
-    c_mt within 25 % of the 0.18 realised on the robot (measured 0.168), the tolerances of the
-    report's exp4 rows."""
+    13b: 'significant saturation'; here about 0.1 % of the samples, around the touchdowns, and
+    the stance leg-angle motor, which holds the torso through eq. 42's loop at the shipped eps,
+    7.8 %; every motor below a tenth), no torque ever exceeds its limit (clipped in the
+    controller: exact up to rounding, 1e-9 N m), and the same run at the drivetrain's 30 / 55 N m
+    asks for more than 6 / 10 N m on the stance motors (so the limits bind: measured 11.9 and
+    10.9 N m). Both walk without a fall (speed over these first steps 0.823 m/s, from the
+    designed 0.8 m/s fixed point, within 10 % of the paper's 0.9); c_mt 0.254, above the robot's
+    0.18 by more than the 25 % band of the report's exp4_cmt row, which departs."""
     r = wx.run("exp4", steps=4)
     assert r["torque_limits_nm"] == list(wx.EXP4_LIMITS) == [6.0, 10.0, 6.0, 10.0]
     assert r["fell"] is False and r["steps_completed"] == 4
     assert r["saturation_fraction"]["mLS_st"] > 0.0
-    assert all(0.0 <= f < 0.05 for f in r["saturation_fraction"].values())
+    assert all(0.0 <= f < 0.1 for f in r["saturation_fraction"].values())
     assert all(t <= lim + 1e-9 for t, lim in zip(r["peak_torques_nm"], wx.EXP4_LIMITS))
     free = r["without_limits"]
     assert free["fell"] is False and free["torque_limits_nm"] == list(wx.DRIVE_LIMITS)
     assert free["peak_torques_nm"][0] > 6.0 and free["peak_torques_nm"][1] > 10.0
     assert all(f == 0.0 for f in free["saturation_fraction"].values())
     assert r["speed_mps"] == pytest.approx(wx.EXP4_PAPER["speed_mps"], rel=0.10)
-    assert r["cmt"] == pytest.approx(wx.EXP4_PAPER["cmt"], rel=0.25)
+    # at the shipped eps the stiffer loop's c_mt lies above the robot's 0.18 (0.254; at eps 0.05 it
+    # was 0.168, within 25 %): the report's exp4_cmt row shows the departure
+    assert r["cmt"] > wx.EXP4_PAPER["cmt"] * 1.25
 
 
 @pytest.mark.slow
 def test_exp4_thirty_steps_matches_the_papers_speed_and_cmt():
-    """Exp. 4 over 30 steps (the experiment's default): the simulated robot walks at 0.873 m/s
+    """Exp. 4 over 30 steps (the experiment's default): the simulated robot walks at 0.861 m/s
     against the paper's 0.9 m/s (within 5 %: the model's own fixed point under this controller
-    runs faster than the designed 0.8 m/s, as the robot did) with c_mt 0.175 against the 0.18
-    realised on the robot (within 5 %). Tracking departs: the torso's rms error is far below
-    the robot's 0.89 deg (the model has no boom compliance or cable stretch; asserted below
-    0.5 deg; measured 0.06) while the stance motor leg shape's is far above the robot's 0.28 deg
-    (asserted above 1 deg; measured 5.2 deg, and 5.6 deg without the limits, so not the limits'
-    doing; its cause is not isolated by this experiment). The limits change the speed by under
-    2 % (measured 0.873 against 0.867 m/s)."""
+    runs faster than the designed 0.8 m/s, as the robot did). At the shipped eps (controllers.EPS)
+    c_mt is 0.257, above the 0.18 realised on the robot by more than a quarter (at eps 0.05 it
+    was 0.175; the report's exp4_cmt row departs). Tracking departs: the torso's rms error is far
+    below the robot's 0.89 deg (the model has no boom compliance or cable stretch; asserted below
+    0.5 deg; measured 0.02) while the stance motor leg shape's is above the robot's 0.28 deg
+    (asserted above 1 deg; measured 1.85 deg, and 1.84 deg without the limits, so not the limits'
+    doing). The limits change the speed by under 2 % (measured 0.861 against 0.862 m/s)."""
     r = wx.run("exp4", steps=30)
     assert r["fell"] is False and r["steps_completed"] == 30
     assert r["speed_mps"] == pytest.approx(0.9, rel=0.05)
-    assert r["cmt"] == pytest.approx(0.18, rel=0.05)
+    assert r["cmt"] > 0.18 * 1.25
     assert r["tracking_rms_deg"]["Tor"] < 0.5
     assert r["tracking_rms_deg"]["mLS_st"] > 1.0
     assert r["speed_mps"] == pytest.approx(r["without_limits"]["speed_mps"], rel=0.02)
