@@ -51,16 +51,10 @@ def test_the_quick_run_cannot_judge_78_steps_and_a_missing_experiment_is_skipped
 
 
 def test_the_rows_judge_the_order_of_magnitude_and_the_paper_shortest_walk():
-    rows = {r["id"]: r for r in values.load(_hzd_values())["rows"]}
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
     assert values.agrees(10.0, rows[IDS[0]]["tolerance"], rows[IDS[0]]["paper"]) is True
     assert values.agrees(9.9, rows[IDS[0]]["tolerance"], rows[IDS[0]]["paper"]) is False
     assert values.agrees(77, rows[IDS[2]]["tolerance"]) is False and rows[IDS[2]]["survival_only"] is True
-
-
-def _hzd_values():
-    from pathlib import Path
-
-    return Path(R.__file__).parent / "data" / "paper_hzd.json"
 
 
 def test_the_experiment_keeps_the_joint_side_at_the_leg_shape_gear():
