@@ -59,8 +59,10 @@ def test_json_on_stdout_is_the_report(report):
     ran = {f"{k}/{e['name']}" for k, p in rec["papers"].items() for e in p["experiments"] if not e["skipped"]}
     assert ran == set(ONLY)
     assert "expected duration" in stderr and "[1/2]" in stderr and "[2/2]" in stderr
-    flat = {r["id"]: r for r in rec["papers"]["running"]["rows"]}["flat_success"]
-    assert flat["bipedlab"] == 1.0 and flat["agrees"] is True
+    rows = {r["id"]: r for r in rec["papers"]["running"]["rows"]}
+    # "stabilises the gait" holds only with both steady errors within their rows' bands
+    steady = rows["flat_apex_error_m"]["agrees"] and rows["flat_speed_error_mps"]["agrees"]
+    assert rows["flat_success"]["bipedlab"] == float(steady) and rows["flat_success"]["agrees"] is steady
 
 
 def _browser():

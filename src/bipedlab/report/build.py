@@ -106,7 +106,7 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
                         tolerance_spec=dict(kind=tol["kind"], value=tol.get("value"), derivation=tol.get("derivation"),
                                             sign=sign),
                         tolerance_why=tol["why"], derivation=tol.get("derivation"), self_check=self_check,
-                        survival_only=bool(r.get("survival_only")),
+                        survival_only=bool(r.get("survival_only")), gait=r.get("gait"),
                         met=met, agrees=None if self_check else met, verdict=word, why=why))
     return out, data
 
@@ -124,6 +124,21 @@ def counts(rows: list) -> dict:
                 self_checks=v.count("self-check met") + v.count("self-check not met"),
                 self_checks_not_met=v.count("self-check not met"), not_identifiable=v.count("not identifiable"),
                 not_judged=v.count("not judged"))
+
+
+def _gaits_of(paper: Paper, name: str) -> list:
+    return next((list(e.gaits) for e in paper.experiments if e.name == name), [])
+
+
+def gait_table(paper: Paper, records: dict, quick: bool) -> list:
+    """The paper's gaits (:attr:`Paper.gaits`), each with ``walked_by``: the experiments that
+    walk or design it; [] for a paper without designed gaits."""
+    if paper.gaits is None:
+        return []
+    table = [dict(g) for g in paper.gaits(records, quick)]
+    for g in table:
+        g["walked_by"] = [e.name for e in paper.experiments if g["name"] in e.gaits]
+    return table
 
 
 def _copy_files(res, paper_key: str, out_dir: Path) -> dict:
@@ -165,7 +180,8 @@ def build(papers: list, results: dict, quick: bool, out_dir, wall_s: float, cpu_
         report["papers"][p.key] = dict(
             title=data["title"], citation=data["citation"], rows=rows,
             counts=counts(rows),
-            experiments=[dict(r.summary(), record=r.record) for r in res],
+            experiments=[dict(r.summary(), gaits=_gaits_of(p, r.name), record=r.record) for r in res],
+            gaits=gait_table(p, records, quick),
             figures=[f for f in figs if f["kind"] == "figure"],
             animations=[f for f in figs if f["kind"] == "animation"],
             notes=list(p.notes))

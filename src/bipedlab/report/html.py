@@ -79,7 +79,8 @@ def _table(rows: list) -> str:
         cls, word = _verdict(r)
         if r.get("survival_only"):
             word += '<br><span class="src">survival only</span>'
-        out.append(f'<tr class="{cls}" id="row-{escape(r["id"])}"><td>{escape(r["quantity"])}</td>'
+        gait = f'<br><span class="src">gait: {escape(r["gait"])}</span>' if r.get("gait") else ""
+        out.append(f'<tr class="{cls}" id="row-{escape(r["id"])}"><td>{escape(r["quantity"])}{gait}</td>'
                    f'<td>{escape(_val(r["paper"], r["unit"]))}<br><span class="src">{escape(r["source"])}</span></td>'
                    f'<td class="num">{escape(_val(r["bipedlab"], r["unit"]))}</td><td class="verdict">{word}</td>'
                    f'<td class="src">{escape(r["tolerance"])}{_derivation(r)}</td><td class="why">{escape(r["why"] or "")}</td></tr>')
@@ -101,8 +102,28 @@ DERIVATION_WORDS = {"precision": "from the printed digits", "spread": "from the 
                     "own_target": "the method's own target"}
 
 
+def _gaits(gaits: list) -> str:
+    """The paper's gait table: each gait's designed figures, the paper's beside them, and the
+    experiments that walk it."""
+    out = ['<table class="gaits"><thead><tr><th>gait</th><th>designed on</th><th>speed (m/s)</th>'
+           '<th>step (m)</th><th>c_mt</th><th>the paper\'s gait it stands for</th><th>walked by</th></tr></thead><tbody>']
+    for g in gaits:
+        p = g.get("paper") or {}
+        figs = ", ".join(f"{what} {_val(p[k], unit)}" if p.get(k) is not None else f"no {what} given"
+                         for k, what, unit in (("speed_mps", "speed", "m/s"), ("step_length_m", "step", "m"),
+                                               ("cmt", "c_mt", "")))
+        paper = (f'{escape(p["gait"])}: {escape(figs)}<br><span class="src">{escape(p.get("source", ""))}</span>'
+                 if p else "—")
+        out.append(f'<tr id="gait-{escape(g["name"])}"><td>{escape(g["name"])}</td><td>{escape(g["designed_on"])}</td>'
+                   f'<td class="num">{escape(_val(g["speed_mps"]))}</td><td class="num">{escape(_val(g["step_length_m"]))}</td>'
+                   f'<td class="num">{escape(_val(g["cmt"]))}</td><td>{paper}</td>'
+                   f'<td>{escape(", ".join(g["walked_by"]) or "—")}</td></tr>')
+    out.append("</tbody></table>")
+    return "\n".join(out)
+
+
 def _experiments(exps: list) -> str:
-    out = ['<table class="experiments"><thead><tr><th>experiment</th><th>command</th><th>--quick reduction</th>'
+    out = ['<table class="experiments"><thead><tr><th>experiment</th><th>command</th><th>gaits</th><th>--quick reduction</th>'
            '<th>compile (s)</th><th>run (s)</th><th>wall (s)</th><th>note</th></tr></thead><tbody>']
     for e in exps:
         if e["skipped"]:
@@ -112,7 +133,8 @@ def _experiments(exps: list) -> str:
             c, w = f'{e["compile_s"]:.1f}', f'{e["wall_s"]:.1f}'
             r = f'{max(e["wall_s"] - e["compile_s"], 0.0):.1f}'
             note = "stored result (content hash unchanged)" if e["cached"] else ""
-        out.append(f'<tr><td>{escape(e["name"])}</td><td><code>{escape(e["command"])}</code></td>'
+        gaits = ", ".join(e.get("gaits") or []) or "—"
+        out.append(f'<tr><td>{escape(e["name"])}</td><td><code>{escape(e["command"])}</code></td><td>{escape(gaits)}</td>'
                    f'<td>{escape(e["reduction"] or "")}</td><td class="num">{c}</td><td class="num">{r}</td>'
                    f'<td class="num">{w}</td><td class="note">{escape(note)}</td></tr>')
     out.append("</tbody></table>")
@@ -174,6 +196,10 @@ def page(report: dict) -> str:
             parts += ["<h3>Gait animation</h3>", _animations(p["animations"])]
         for n in p["notes"]:
             parts.append(f'<p class="note">{escape(n)}</p>')
+        if p.get("gaits"):
+            parts += ["<h3>Gaits</h3>", '<p class="note">The gaits the experiments walk, with the figures their design '
+                      'produced (speed, step length, c_mt of the designed orbit) beside the paper\'s gait each stands for; '
+                      'a row\'s gait is named under its quantity.</p>', _gaits(p["gaits"])]
         parts += ["<h3>Experiments</h3>", _experiments(p["experiments"]), "</section>"]
     meta = [("bipedlab", report["version"]), ("commit", report["commit"] or "not a git checkout"),
             ("JAX", report["jax"]), ("Python", report["python"]), ("device", dev["description"]),

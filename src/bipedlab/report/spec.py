@@ -25,6 +25,8 @@ class Experiment:
     reduction: what ``--quick`` reduces, in words (stated in the report).
     expected_s / quick_expected_s: expected wall seconds from an empty compile cache on a
         two-core CPU (for the progress display and the announced duration).
+    gaits: the gaits the experiment walks or designs, by name (shown beside it in the report;
+        the paper's :attr:`Paper.gaits` table gives each one's designed figures).
     """
 
     name: str
@@ -36,6 +38,7 @@ class Experiment:
     expected_s: float = 60.0
     quick_expected_s: float = 30.0
     skip_reason: str = "not run in --quick"
+    gaits: tuple = ()
 
     def args(self, quick: bool) -> Optional[dict]:
         return self.quick_args if quick else self.full_args
@@ -102,6 +105,9 @@ class Paper:
     figures / animations: :class:`Figure` s shown in the paper's section.
     notes: sentences shown under the section's figures.
     order: position of the paper in the report (then by key).
+    gaits(records, quick) -> [dict]: for papers whose experiments walk designed gaits, one entry
+        per gait (``name``, what it was designed on, its designed figures and the paper's beside
+        them); the report adds which experiments walk it (:attr:`Experiment.gaits`).
     """
 
     key: str
@@ -113,6 +119,7 @@ class Paper:
     animations: tuple = ()
     notes: tuple = field(default_factory=tuple)
     order: int = 100
+    gaits: Optional[Callable[[dict, bool], list]] = None
 
     def experiment(self, name: str) -> Experiment:
         for e in self.experiments:

@@ -47,6 +47,10 @@ method checks itself (against its own targets on a synthetic robot, a constraint
 a parameter chosen by its closeness to the paper's number: a fit): its verdict is shown as a
 self-check and never counts as agreement with the paper.
 
+``gait`` names the gait (or gaits, comma-separated) the row's experiment walked or designed,
+for papers whose experiments walk designed gaits; the report shows it beside the quantity and
+the paper's gait table gives each gait's designed figures.
+
 ``departs_why`` is the sentence shown when the simulation departs, ``tolerance.why`` the one
 shown when it agrees. Either may cite numbers of the run as ``{name}`` or ``{name:fmt}`` (a
 format spec, e.g. ``{value:+.3f}``), with an optional scale ``{name*100:.1f}`` (metres as
@@ -292,6 +296,8 @@ def check(data: dict, label: str = "paper values") -> dict:
         check_tolerance(row["tolerance"], where)
         if "departs_why" in row and not isinstance(row["departs_why"], str):
             raise ValuesError(f"{where}: 'departs_why' must be a sentence")
+        if "gait" in row and (not isinstance(row["gait"], str) or not row["gait"].strip()):
+            raise ValuesError(f"{where}: 'gait' must name the gait (or gaits) the row's experiment walked")
         if "sign" in row:
             if row["sign"] not in SIGNS:
                 raise ValuesError(f"{where}: 'sign' must be '+' or '-'")

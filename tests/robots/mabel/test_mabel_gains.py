@@ -124,9 +124,10 @@ def test_dominant_eigenvalue_changes_with_the_gains_as_measured(sweep):
     """Measured on this model (the paper gives neither its gains nor a sweep): on the nominal
     gait the dominant eigenvalue is real and negative over the grid, and raising the gains
     speeds convergence: kd x 1.5 (kp as shipped) takes it from -0.888 to -0.494, kp and kd x 1.5
-    to -0.235, while kp and kd x 0.75 make the gait unstable (-1.394). The grid point whose
-    |eigenvalue| is nearest the paper's 0.6921 is kp x 1.5, kd x 0.75 with -0.663 (|.| within
-    0.03 of the paper's, but of the opposite sign). The efficient gait's eigenvalue is real and
+    to -0.235, while kp and kd x 0.75 make the gait unstable (-1.394). The paper's 0.6921 is
+    real and positive; kp x 1.5, kd x 0.75 gives -0.663 (|.| within 0.03 of it, but of the
+    opposite sign), so the grid point nearest it in the complex plane is kp and kd x 1.5
+    (-0.235, 0.927 away). The efficient gait's eigenvalue is real and
     positive, stable at every grid point (0.68 to 0.99) and nearest its paper value 0.8194 at
     kd x 1.5 (0.8246). Tolerances 1e-3 on the eigenvalues: the fixed points converge to 1e-10,
     the central-difference Jacobian is good to about 1e-7; 1e-3 keeps the assertion to the
@@ -139,10 +140,10 @@ def test_dominant_eigenvalue_changes_with_the_gains_as_measured(sweep):
     assert nom[(1.0, 1.5)]["re"] == pytest.approx(-0.4938, abs=1e-3)
     assert nom[(1.5, 1.5)]["re"] == pytest.approx(-0.2351, abs=1e-3)
     assert nom[(0.75, 0.75)]["re"] == pytest.approx(-1.3940, abs=1e-3)
-    c = sweep["closest_to_paper"]["nominal"]
-    assert (c["kp_scale"], c["kd_scale"]) == (1.5, 0.75)
-    assert c["dominant_eigenvalue"]["re"] == pytest.approx(-0.6630, abs=1e-3)
-    assert abs(c["dominant_eigenvalue"]["abs"] - 0.6921) < 0.03
+    assert nom[(1.5, 0.75)]["re"] == pytest.approx(-0.6630, abs=1e-3)  # |.| 0.03 from the paper's, sign opposite
+    c = sweep["closest_to_paper"]["nominal"]  # nearest the paper's real, positive 0.6921 in the complex plane
+    assert (c["kp_scale"], c["kd_scale"]) == (1.5, 1.5)  # the negative eigenvalue nearest zero
+    assert c["difference"] == pytest.approx(0.6921 + 0.2351, abs=1e-3)
     eff = pts["efficient"]
     assert all(e is not None and 0.6 < e["re"] < 1.0 and e["im"] == 0.0 for e in eff.values())
     assert eff[(1.0, 1.0)]["re"] == pytest.approx(0.8070, abs=1e-3)

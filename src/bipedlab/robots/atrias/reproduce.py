@@ -175,7 +175,7 @@ def measure(records: dict, quick: bool) -> dict:
         h, v = dig(flat, "last10", "apex_height_error_mean_m"), dig(flat, "last10", "speed_error_mean_mps")
         out["flat_apex_error_m"] = None if h is None else abs(h)  # the paper states the errors' sizes
         out["flat_speed_error_mps"] = None if v is None else abs(v)
-        out["flat_success"] = float(not flat["fell"])
+        out["flat_success"] = _stabilised(flat, out["flat_apex_error_m"], out["flat_speed_error_mps"])
         out.update(_slip_flat(flat))
     trunk = records.get("trunk-10deg")
     if trunk is not None and trunk.get("fell"):
@@ -200,6 +200,26 @@ def measure(records: dict, quick: bool) -> dict:
     out.update(_variants(records, missing))
     rows = {r["id"] for r in json.loads(DATA.read_text(encoding="utf-8"))["rows"]}
     return {k: v for k, v in out.items() if k in rows}
+
+
+def _stabilised(flat, apex, speed) -> Measured:
+    """The claim that the controller "stabilises the gait" on flat ground (Sec. IV-A), tested as:
+    the run does not fall and settles with steady apex-height and speed errors each within the
+    band of its own row (``flat_apex_error_m``, ``flat_speed_error_mps``); 1.0 or 0.0, with the
+    reason in words (``reason``)."""
+    from bipedlab.report import values
+
+    rows = {r["id"]: r for r in values.load(DATA)["rows"]}
+    if flat["fell"]:
+        return Measured(0.0, dict(reason="the run fell"))
+    outside = [f"{what} {x * 100:.1f} {unit} (the paper's {rows[rid]['paper'] * 100:g} {unit}; "
+               f"{values.tolerance_text(rows[rid]['tolerance'], unit)})"
+               for rid, what, x, unit in (("flat_apex_error_m", "apex-height error", apex, "cm"),
+                                          ("flat_speed_error_mps", "apex-speed error", speed, "cm/s"))
+               if x is None or not values.agrees(x, rows[rid]["tolerance"], rows[rid]["paper"])]
+    if outside:
+        return Measured(0.0, dict(reason="the run does not fall, but it settles with a steady " + " and ".join(outside)))
+    return Measured(1.0, dict(reason="the run does not fall and settles within both bands"))
 
 
 def _slip_flat(flat) -> dict:

@@ -288,47 +288,98 @@ QUICK_PD_SCALES = (0.75, 1.0, 1.5)
 QUICK_FULL_PLANT_STEPS = 8
 
 
-def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick_expected, **options):
+def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick_expected, walks, **options):
     return Experiment(name, command, _wx(name), dict(steps=full_steps), dict(steps=quick_steps, options=options),
-                      reduction=reduction, expected_s=expected, quick_expected_s=quick_expected)
+                      reduction=reduction, expected_s=expected, quick_expected_s=quick_expected, gaits=tuple(walks))
+
+
+#: the gaits each experiment walks or designs (the walking experiments' constants, e.g.
+#: ``experiments.EXP3_GAIT``, ``PD_GAITS``, ``GAP_GAITS``; written out here so that listing the
+#: papers imports no simulation code; a test holds them equal)
+_GAITS = {"design": ("paper-nominal", "paper-efficient"), "nominal": ("nominal",), "push": ("nominal",),
+          "efficient": ("paper-efficient",), "tracking": ("nominal",), "impact-scaling": ("nominal",),
+          "fast": ("nominal", "fast"), "pd-gains": ("nominal", "efficient"), "exp4": ("nominal",),
+          "full-plant": ("paper-nominal", "paper-efficient", "nominal", "efficient")}
 
 
 HZD_EXPERIMENTS = (
     Experiment("design", "bipedlab optimize mabel --speed 0.8 [--cost cmt]", _designs, dict(source="optimize"),
                dict(source="shipped"), reduction="reads the shipped gait files paper-nominal and paper-efficient "
                "(written by these commands, with their stored Poincaré eigenvalues) instead of optimising and "
-               "linearising again", expected_s=360, quick_expected_s=10),
+               "linearising again", expected_s=360, quick_expected_s=10, gaits=_GAITS["design"]),
     _walk_exp("nominal", "bipedlab experiment mabel nominal", 100, QUICK_WALK_STEPS,
-              f"{QUICK_WALK_STEPS} steps instead of 100", 70, 15),
+              f"{QUICK_WALK_STEPS} steps instead of 100", 70, 15, _GAITS["nominal"]),
     _walk_exp("push", "bipedlab experiment mabel push", 30, QUICK_PUSH_STEPS,
               f"the two pushes under PD + feedforward only, in step {QUICK_PUSH_STEP} of {QUICK_PUSH_STEPS}-step walks "
-              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 360, 15,
+              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 360, 15, _GAITS["push"],
               push_step=QUICK_PUSH_STEP, controllers=["pdff"], search=False, reference_from=1),
     _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, QUICK_WALK_STEPS,
-              f"{QUICK_WALK_STEPS} steps instead of 100", 30, 5),
+              f"{QUICK_WALK_STEPS} steps instead of 100", 30, 5, _GAITS["efficient"]),
     _walk_exp("tracking", "bipedlab experiment mabel tracking", 30, QUICK_WALK_STEPS,
               f"PD + feedforward and I/O linearisation only (not the decentralised form), {QUICK_WALK_STEPS} steps "
               "instead of 30; beside each walk the same walk with exact encoders and on the 13-DoF plant (the causes of "
-              "the tracking difference)", 150, 45, controllers=["pdff", "iolin"]),
+              "the tracking difference)", 150, 45, _GAITS["tracking"], controllers=["pdff", "iolin"]),
     _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40, QUICK_ETA_STEPS,
               f"eta in {{{', '.join(f'{e:g}' for e in QUICK_ETAS)}}} only, {QUICK_ETA_STEPS} steps each with the speed "
               f"of the last {QUICK_ETA_AVERAGE} (instead of six values, 40 steps, the last 10); no PD + feedforward "
-              "column", 170, 15, etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False),
+              "column", 170, 15, _GAITS["impact-scaling"], etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False),
     _walk_exp("fast", "bipedlab experiment mabel fast", 100, QUICK_FAST_STEPS,
               f"the 0.7 rad lean in {QUICK_LEAN_STEPS} increments instead of 30, then {QUICK_FAST_STEPS} steps instead "
-              "of 100; no comparison runs", 100, 8, lean_steps=QUICK_LEAN_STEPS, comparisons=False),
+              "of 100; no comparison runs", 100, 8, _GAITS["fast"], lean_steps=QUICK_LEAN_STEPS, comparisons=False),
     Experiment("pd-gains", "bipedlab experiment mabel pd-gains", _wx("pd-gains"), dict(steps=None),
                dict(steps=None, options=dict(kp_scales=list(QUICK_PD_SCALES), kd_scales=list(QUICK_PD_SCALES))),
                reduction=f"factors {{{', '.join(f'{a:g}' for a in QUICK_PD_SCALES)}}} on kp and on kd (a 3 x 3 grid "
-               "instead of 5 x 5)", expected_s=60, quick_expected_s=30),
+               "instead of 5 x 5)", expected_s=60, quick_expected_s=30, gaits=_GAITS["pd-gains"]),
     _walk_exp("exp4", "bipedlab experiment mabel exp4", 30, QUICK_WALK_STEPS,
-              f"{QUICK_WALK_STEPS} steps instead of 30; no run without the 6/10 N m limits", 30, 5, compare=False),
+              f"{QUICK_WALK_STEPS} steps instead of 30; no run without the 6/10 N m limits", 30, 5, _GAITS["exp4"],
+              compare=False),
     _walk_exp("full-plant", "bipedlab experiment mabel full-plant", 100, QUICK_FULL_PLANT_STEPS,
               f"the two gaits designed on the paper's design model only, {QUICK_FULL_PLANT_STEPS} steps each instead "
-              "of 100 (and not the full-model gaits)", 60, 10, gaits=["paper-nominal", "paper-efficient"]),
+              "of 100 (and not the full-model gaits)", 60, 10, _GAITS["full-plant"],
+              gaits=["paper-nominal", "paper-efficient"]),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
+
+
+def _paper_gaits() -> dict:
+    """The paper's gaits each shipped gait stands for, their figures read from the paper-values
+    rows (Sec. III-E, Fig. 5; the paper gives no step length for the c_mt gait)."""
+    import json
+
+    rows = {r["id"]: r for r in json.loads((DATA / "paper_hzd.json").read_text())["rows"]}
+
+    def fig(row_id):
+        return rows[row_id]["paper"] if row_id in rows else None
+
+    def gait(words, prefix):
+        ids = [f"{prefix}_speed_mps", f"{prefix}_step_length_m", f"{prefix}_cmt"]
+        return dict(gait=words, speed_mps=fig(ids[0]), step_length_m=fig(ids[1]), cmt=fig(ids[2]),
+                    source="; ".join(dict.fromkeys(rows[i]["source"] for i in ids if i in rows)))
+
+    return {"nominal": gait("the nominal gait", "nominal"), "efficient": gait("the c_mt gait", "efficient")}
+
+
+_DESIGNED_ON = {"paper": "the paper's design model (rigid cables, no motor friction or spring damping)",
+                "full": "the full design model (Table V motor friction, spring damping in the zero dynamics)"}
+
+
+def gait_table(records: dict, quick: bool) -> list:
+    """The shipped gaits the HZD experiments walk (:data:`_GAITS`), each with its designed speed,
+    step length and c_mt (from its gait file) beside the paper's gait it stands for."""
+    import json
+
+    out, papers = [], _paper_gaits()
+    walked = {g for gs in _GAITS.values() for g in gs}
+    for name in (g for g in ("paper-nominal", "paper-efficient", "nominal", "efficient", "fast") if g in walked):
+        d = json.loads((DATA / f"mabel_{name}.json").read_text())["payload"]
+        des, model = d["design"], d.get("design_model", "full")
+        paper = papers.get(name.removeprefix("paper-"))
+        cost = "c_mt" if d["cost"] == "cmt" else d["cost"]
+        out.append(dict(name=name, designed_on=f"{_DESIGNED_ON[model]}, {cost} cost", design_model=model,
+                        cost=d["cost"], speed_mps=des["speed"], step_length_m=des["step_length"], cmt=des["cmt"],
+                        period_s=des["period"], paper=paper))
+    return out
 
 
 def _eta_key(eta: float) -> str:
@@ -352,14 +403,15 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     nom = records.get("nominal")
     skip = Skip(NOT_QUICK) if quick else Skip("not run")
     out["exp1_speed_mps"] = dig(nom, "speed_mps") if nom else skip
+    out["exp1_cmt"] = dig(nom, "cmt") if nom else skip
     push = records.get("push")
     if push:
         runs = {(r["controller"], r["force_n"]): r for r in push["runs"]}
         f, b = runs.get(("pdff", 78.0)), runs.get(("pdff", -71.0))
-        out["push_forward_change"] = Failed("fell after the push") if dig(f, "fell") else dig(f, "peak_speed_change")
-        out["push_forward_steps"] = Failed("fell after the push") if dig(f, "fell") else _recovered(f, quick)
-        out["push_backward_change"] = Failed("fell after the push") if dig(b, "fell") else dig(b, "peak_speed_change")
-        out["push_backward_steps"] = Failed("fell after the push") if dig(b, "fell") else _recovered(b, quick)
+        out["push_forward_change"] = _pushed(f) or dig(f, "peak_speed_change")
+        out["push_forward_steps"] = _pushed(f) or _recovered(f, quick)
+        out["push_backward_change"] = _pushed(b) or dig(b, "peak_speed_change")
+        out["push_backward_steps"] = _pushed(b) or _recovered(b, quick)
         out["push_forward_survived"] = _survived(f)
         for key, sign in (("push_force_plus_45pct_n", "plus"), ("push_force_minus_45pct_n", "minus")):
             out[key] = (dig(push, f"force_for_{sign}_45pct_n") if "searches" in push else
@@ -386,9 +438,7 @@ def measure_hzd(records: dict, quick: bool) -> dict:
                              else dig(imp, "dv_deta") if imp else skip)
     pdg = records.get("pd-gains")
     for g in ("nominal", "efficient"):
-        out[f"{g}_eig_pdff_closest_gains"] = (
-            (dig(pdg, "closest_to_paper", g, "dominant_eigenvalue", "abs") or Failed("no grid point had a fixed point"))
-            if pdg else Skip("not run"))
+        out[f"{g}_eig_pdff_closest_gains"] = _nearest_eigenvalue(pdg, g) if pdg else Skip("not run")
     ex4 = records.get("exp4")
     fell4 = (f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) under the "
              "6 / 10 N m limits" if ex4 and ex4["fell"] else None)
@@ -399,6 +449,7 @@ def measure_hzd(records: dict, quick: bool) -> dict:
                              "its peak error is the fall's, not the walk's")):
         out[key] = (skip if not ex4 else Failed(f"{fell4}: {lost} (see experiment exp4)") if fell4
                     else dig(ex4, *path))
+    out["exp4_closer_to_design_than_exp1"] = _closer_to_design(nom, ex4, out["exp4_speed_mps"], skip)
     gap = (records.get("full-plant") or {}).get("runs", {})
     for g, key in (("paper-nominal", "fullplant_nominal"), ("paper-efficient", "fullplant_efficient")):
         x = gap.get(g)
@@ -432,6 +483,23 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         out["fast_sustained_mps"] = dig(fast, "speed_after_lean_mps") if fast else skip
         out["fast_top_mps"] = (max(fast["speed_per_step"]) if fast and fast.get("speed_per_step") else skip)
     return out
+
+
+def _nearest_eigenvalue(pdg: dict, gait: str):
+    """The PD + feedforward map's dominant eigenvalue at the pd-gains grid point nearest the
+    paper's in the complex plane (the experiment's ``closest_to_paper``; Sec. IV-A: 0.6921 and
+    0.8194, real and positive): its real part, with the gains, the imaginary part and the
+    distance as facts. A nearest eigenvalue with an imaginary part past the row's band is Failed
+    (a real number cannot stand for it)."""
+    c = dig(pdg, "closest_to_paper", gait)
+    if c is None:
+        return Failed("no grid point had a fixed point")
+    e, paper = c["dominant_eigenvalue"], c["paper_abs"]
+    if abs(e["im"]) > 0.05:
+        return Failed(f"the grid point nearest the paper's {paper} (kp x {c['kp_scale']:g}, kd x {c['kd_scale']:g}) "
+                      f"has the complex dominant eigenvalue {e['re']:+.4f} {e['im']:+.4f}i, {c['difference']:.3f} "
+                      "from it; see experiment pd-gains (pd_gains_eigenvalues.png)")
+    return Measured(e["re"], dict(kp_scale=c["kp_scale"], kd_scale=c["kd_scale"], im=e["im"], distance=c["difference"]))
 
 
 def _headline(fp, quick: bool, out: dict) -> None:
@@ -476,6 +544,32 @@ def _survived(run):
                     f"{run['toe_pulled_step']}), which a pinned toe hides: the foot would have lifted"
                     if run.get("toe_pulled") else "survived")
     return Measured(bool(not run.get("fell", True) and not run.get("toe_pulled", False)), facts)
+
+
+def _closer_to_design(nom, ex4, exp4_speed, skip):
+    """Exp. 4's distance from the designed speed minus Exp. 1's (Sec. V-D: Exp. 4 is the closer),
+    with both speeds and the design's as facts; Failed where Exp. 4's speed is."""
+    if not nom or not ex4:
+        return skip
+    if isinstance(exp4_speed, Failed):
+        return exp4_speed
+    if nom.get("fell"):
+        return Failed("Exp. 1 fell: a fallen walk has no speed (see experiment nominal)")
+    v1, v4, vd = nom["speed_mps"], ex4["speed_mps"], nom["designed_speed_mps"]
+    return Measured(abs(v4 - vd) - abs(v1 - vd), dict(v_exp1=v1, v_exp4=v4, v_designed=vd))
+
+
+def _pushed(run):
+    """Failed where a pushed walk has no speed change or recovery to report: it fell, or its pinned
+    stance toe pulled on the ground (the foot would have lifted, so the walk after it is not the
+    robot's); None where the walk is valid."""
+    if dig(run, "fell"):
+        return Failed("fell after the push")
+    if dig(run, "toe_pulled"):
+        return Failed(f"the pushed walk is not a physical one: its stance toe pulled on the ground "
+                      f"({run['min_normal_force_n']:.0f} N in step {run['toe_pulled_step']}), which the pinned toe of "
+                      "the stance model hides (the foot would have lifted); see row push_forward_survived")
+    return None
 
 
 def _recovered(run: dict, quick: bool):
@@ -535,7 +629,7 @@ PAPERS = [
                  "robot, has no ground truth. Those rows are self-checks, the method against its own targets: shown "
                  "as such and not counted as agreement with the paper.",)),
     Paper(key="hzd", title="MABEL: compliant hybrid zero dynamics walking", values=str(DATA / "paper_hzd.json"),
-          experiments=HZD_EXPERIMENTS, measure=measure_hzd, order=20,
+          experiments=HZD_EXPERIMENTS, measure=measure_hzd, order=20, gaits=gait_table,
           figures=(Figure("nominal", "walk_tracking.png", "Exp. 1 in simulation: the nominal gait under PD + feedforward on the stance model with 14-bit encoders, tracking errors of the virtual constraints (cf. paper Fig. 12a, the robot)"),
                    Figure("nominal", "walk_torques.png", "Exp. 1, same walk: motor torques (cf. paper Fig. 13a; dashed: the paper's 30 / 55 N m capacities)"),
                    Figure("nominal", "walk_spring_torso.png", "Exp. 1, same walk: stance B_spring and torso (cf. paper Figs. 14, 20)"),
