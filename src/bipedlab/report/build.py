@@ -88,9 +88,10 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         if reason is None and met is None:
             reason = (values.render(tol["why"], namespace, where + " tolerance.why") if tol["kind"] == "report"
                       else "not comparable under this tolerance")
-        word = "not identifiable" if unknown is not None else values.verdict(met, self_check, tol.get("derivation"))
         if unknown is not None:
-            reason = unknown
+            word, reason = "not identifiable", unknown
+        else:
+            word = values.verdict(met, self_check, tol.get("derivation"))
         if met is True:
             head = word
             why = f"{head} {values.tolerance_text(tol, unit, sign)}: {values.render(tol['why'], namespace, where + ' tolerance.why')}"
@@ -113,9 +114,8 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
 
 def counts(rows: list) -> dict:
     """How many rows match, agree or depart (numbers), hold (of which how many on survival
-    alone) or fail (claims), are self-checks
-    (met or not), are not identifiable from the run's data or are not judged: each verdict class
-    apart."""
+    alone) or fail (claims), are self-checks (met or not), are not identifiable from the run's
+    data or are not judged: each verdict class apart."""
     v = [r["verdict"] for r in rows]
     return dict(rows=len(rows), matches=v.count("matches"), agrees=v.count("agrees"), departs=v.count("departs"),
                 claims_hold=v.count("claim holds"),

@@ -520,8 +520,9 @@ def _headline(fp, quick: bool, out: dict) -> None:
     else:
         for rid, key in ((ids[0], "mLS_st"), (ids[1], "Tor")):
             a, b = pd["tracking_rms_deg"][key], io["tracking_rms_deg"][key]
-            out[rid] = Measured(a / b, dict(pdff=a, hzd=b, pdff_joint=pd["mLS_st_rms_joint_deg"],
-                                            hzd_joint=io["mLS_st_rms_joint_deg"]))
+            joint = (dict(pdff_joint=pd["mLS_st_rms_joint_deg"], hzd_joint=io["mLS_st_rms_joint_deg"])
+                     if key == "mLS_st" else {})  # the joint side is the leg shape's (gear 31.42)
+            out[rid] = Measured(a / b, dict(pdff=a, hzd=b, **joint))
     runs = [(g, c, x) for g, by in hzd.items() for c, x in by.items() if c != "pdff"]
     least = min(x["steps_completed"] for _, _, x in runs)
     fell = [f"{c} on {g}" for g, c, x in runs if x["fell"]]
