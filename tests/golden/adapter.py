@@ -31,8 +31,8 @@ noted):
 * ``mabel_walk(c)``           sim.mabel_walk.simulate, 1 step (first 500-sample chunk at least),
                               nominal gait, encoders, controllers pdff / iolin: every 50th
                               sample of logs z and u plus the last, and the final state.
-* ``seven_link_walk()``       sim.seven_link_contact.simulate via studies.walk_seven_link.run_walk,
-                              1 step: touchdowns, final state, every 200th log sample of x, u.
+* ``seven_link_walk(n)``      sim.seven_link_contact.simulate via studies.walk_seven_link.run_walk,
+                              n steps: touchdowns, final state, every 200th log sample of x, u.
 * ``atrias_run()``            sim.atrias_run via studies.run_atrias.simulate, 0.5 s flat, one
                               trial: final x, apex records, status.
 * ``slip_run()``              sim.slip_run.run, pure spring-mass model, 6 bounces on flat ground.

@@ -102,11 +102,22 @@ DERIVATION_WORDS = {"precision": "from the printed digits", "spread": "from the 
                     "own_target": "the method's own target"}
 
 
+def _torso(g: dict) -> str:
+    """A gait's designed torso travel, and whether it exceeds the design's bound."""
+    t, bound = g.get("torso_travel_deg"), g.get("torso_travel_bound_deg")
+    if t is None:
+        return "—"
+    over = f" (over the design's bound of {_val(bound)})" if bound is not None and t > bound + 0.01 else ""
+    return escape(_val(t) + over)
+
+
 def _gaits(gaits: list) -> str:
-    """The paper's gait table: each gait's designed figures, the paper's beside them, and the
-    experiments that walk it."""
+    """The paper's gait table: each gait's designed figures (the torso's travel where the paper
+    bounds it), the paper's beside them, and the experiments that walk it."""
+    torso = any("torso_travel_deg" in g for g in gaits)
     out = ['<table class="gaits"><thead><tr><th>gait</th><th>designed on</th><th>speed (m/s)</th>'
-           '<th>step (m)</th><th>c_mt</th><th>the paper\'s gait it stands for</th><th>walked by</th></tr></thead><tbody>']
+           '<th>step (m)</th><th>c_mt</th>' + ('<th>torso travel (deg)</th>' if torso else '')
+           + '<th>the paper\'s gait it stands for</th><th>walked by</th></tr></thead><tbody>']
     for g in gaits:
         p = g.get("paper") or {}
         figs = ", ".join(f"{what} {_val(p[k], unit)}" if p.get(k) is not None else f"no {what} given"
@@ -116,7 +127,8 @@ def _gaits(gaits: list) -> str:
                  if p else "—")
         out.append(f'<tr id="gait-{escape(g["name"])}"><td>{escape(g["name"])}</td><td>{escape(g["designed_on"])}</td>'
                    f'<td class="num">{escape(_val(g["speed_mps"]))}</td><td class="num">{escape(_val(g["step_length_m"]))}</td>'
-                   f'<td class="num">{escape(_val(g["cmt"]))}</td><td>{paper}</td>'
+                   f'<td class="num">{escape(_val(g["cmt"]))}</td>'
+                   + (f'<td class="num">{_torso(g)}</td>' if torso else '') + f'<td>{paper}</td>'
                    f'<td>{escape(", ".join(g["walked_by"]) or "—")}</td></tr>')
     out.append("</tbody></table>")
     return "\n".join(out)

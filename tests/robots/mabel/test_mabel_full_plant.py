@@ -176,7 +176,9 @@ def test_eq42_at_pd_stiffness_with_exact_sensing_walks_the_full_plant():
     vc, g, rec = wm.load_gait("paper-nominal")
     assert float(g.eps) == ctl.EPS
     s, log, _ = wm.run_walk("paper-nominal", "iolin", 8, sensing="ideal", plant="full", loaded=(vc, g, rec))
-    r = wm.metrics(s, log)
+    r = wm.metrics(s, log, g.limit)
     pd = wm.walk("paper-nominal", "pdff", 8, plant="full")
     assert r["fell"] is False and r["steps_completed"] == 8
     assert r["tracking_rms_deg"]["mLS_st"] < pd["tracking_rms_deg"]["mLS_st"] / 2
+    # exact sensing: the controller's rates are the plant's, to the last bit
+    assert all(v == 0.0 for v in r["rate_estimate_error_rms"].values())

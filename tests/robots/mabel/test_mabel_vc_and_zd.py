@@ -220,12 +220,22 @@ def test_zero_dynamics_torque_keeps_the_outputs_on_the_manifold(dm, vc, evaluate
 
 # ----------------------------------------------------------------------------- designs
 
+def _torso_bound_violated(ineq, travel_deg):
+    """The design's last inequality is Appendix B's torso bound, 5 (5 deg - soft range): for a
+    gait designed before the bound, travelling ``travel_deg`` > 5 deg, it is negative by the
+    excess (the soft range within 2 ln(n) / sharpness of the range)."""
+    want = 5 * (md.TORSO_TRAVEL - np.radians(travel_deg))
+    return want - 5 * 2 * np.log(40) / md.TORSO_SHARPNESS <= float(ineq[-1]) <= want + 5 * np.radians(0.01) < 0
+
+
 def test_shipped_nominal_design_is_a_feasible_fixed_point(evaluated):
     """Periodicity, the 5 deg spring trigger, touchdown and speed hold to 1e-7; every
-    inequality (friction cone, torque limits, ...) is satisfied."""
+    inequality (friction cone, torque limits, ...) is satisfied but Appendix B's torso bound:
+    the shipped nominal gait was designed before the design had it, and travels 8.4 deg."""
     rec, (fig, eq, ineq, _) = evaluated["nominal"]
     assert np.max(np.abs(eq)) < 1e-7, eq
-    assert np.min(ineq) >= -1e-8
+    assert np.min(ineq[:-1]) >= -1e-8
+    assert _torso_bound_violated(ineq, np.degrees(md.torso_travel(md.design_model(), wm.design_from_record(rec))))
     assert float(fig["speed"]) == pytest.approx(rec["speed"], rel=1e-7)
     # the record's figures are those of the design
     for k in ("cmt", "step_length", "period"):
@@ -234,26 +244,29 @@ def test_shipped_nominal_design_is_a_feasible_fixed_point(evaluated):
 
 
 def test_step_length_window_is_an_inequality_of_the_design(evaluate_fn, nominal):
-    """optimize(min_step, max_step) bounds the step: the last two inequalities read
-    5 (L - min) and 5 (max - L); a window below the nominal step is violated, one above holds."""
+    """optimize(min_step, max_step) bounds the step: the two inequalities before the torso
+    bound read 5 (L - min) and 5 (max - L); a window below the nominal step is violated, one
+    above holds."""
     rec = nominal[2]
     x, v = jnp.asarray(rec["x"], float), jnp.asarray(rec["speed"], float)
     L = float(rec["design"]["step_length"])
     for mx, violated in ((L - 0.08, True), (L + 0.08, False)):
         fig, _, ineq, _ = evaluate_fn(x, v, mx)
         assert float(fig["step_length"]) == pytest.approx(L, rel=1e-9)
-        assert float(ineq[-1]) == pytest.approx(5 * (mx - L), rel=1e-9)
-        assert (float(ineq[-1]) < 0) == violated
+        assert float(ineq[-2]) == pytest.approx(5 * (mx - L), rel=1e-9)
+        assert (float(ineq[-2]) < 0) == violated
 
 
 def test_efficient_gait_saves_motor_work(evaluated):
     """The c_mt-optimised gait's designed cost of transport is at least 10 % below the
-    torque-optimised nominal gait's at the same speed; it is a feasible fixed point too."""
+    torque-optimised nominal gait's at the same speed; it is a feasible fixed point too, but
+    for Appendix B's torso bound (designed before it, it travels 7.3 deg)."""
     nom, (fig_n, _, _, _) = evaluated["nominal"]
     eff, (fig_e, eq_e, ineq_e, _) = evaluated["efficient"]
     assert eff["cost"] == "cmt" and nom["cost"] == "torque"
     assert eff["speed"] == pytest.approx(nom["speed"])
-    assert np.max(np.abs(eq_e)) < 1e-7 and np.min(ineq_e) >= -1e-8
+    assert np.max(np.abs(eq_e)) < 1e-7 and np.min(ineq_e[:-1]) >= -1e-8
+    assert _torso_bound_violated(ineq_e, np.degrees(md.torso_travel(md.design_model(), wm.design_from_record(eff))))
     assert float(fig_e["cmt"]) <= 0.9 * float(fig_n["cmt"])
     assert eff["design"]["cmt"] <= 0.9 * nom["design"]["cmt"]
 

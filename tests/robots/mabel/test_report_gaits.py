@@ -72,3 +72,26 @@ def test_the_page_shows_the_gait_table_and_each_rows_gait(paper, table):
     assert "<h3>Gaits</h3>" in page and 'id="gait-paper-nominal"' in page
     assert "gait: paper-nominal</span>" in page and "0.575" in page
     assert page.count('<tr id="gait-') == len(table)
+
+
+def test_the_gait_table_shows_each_gaits_torso_travel_against_appendix_b(table, paper):
+    """Appendix B bounds the torso's travel over a step by 5 deg; the table gives each gait's
+    travel on its own design model's orbit (the Bézier range, computed here from the torso
+    constraint's coefficients alone on a dense grid, within 0.01 deg) and the page marks the
+    gaits over the bound: the paper-model gaits are within it (1.1 and 0.9 deg), the full-model
+    nominal and efficient gaits are not (8.4 and 7.3 deg)."""
+    import numpy as np
+
+    from bipedlab.control import bezier as bz
+
+    s = np.linspace(0.0, 1.0, 20001)
+    for name, g in table.items():
+        vc, _, _ = wm.load_gait(name)
+        travel = np.degrees(np.ptp(np.asarray(bz.bezier(np.asarray(vc.tor), s))))
+        assert g["torso_travel_deg"] == pytest.approx(travel, abs=0.01), name
+        assert g["torso_travel_bound_deg"] == pytest.approx(5.0)
+    over = {n for n, g in table.items() if g["torso_travel_deg"] > 5.0}
+    assert over == {"nominal", "efficient"}
+    page = html._gaits([dict(g, walked_by=["x"]) for g in table.values()])
+    assert "<th>torso travel (deg)</th>" in page
+    assert page.count("over the design&#x27;s bound of 5") == 2 or page.count("over the design's bound of 5") == 2

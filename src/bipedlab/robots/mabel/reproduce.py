@@ -345,9 +345,9 @@ ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
 def _paper_gaits() -> dict:
     """The paper's gaits each shipped gait stands for, their figures read from the paper-values
     rows (Sec. III-E, Fig. 5; the paper gives no step length for the c_mt gait)."""
-    import json
+    from bipedlab.report import values
 
-    rows = {r["id"]: r for r in json.loads((DATA / "paper_hzd.json").read_text())["rows"]}
+    rows = {r["id"]: r for r in values.load(DATA / "paper_hzd.json")["rows"]}
 
     def fig(row_id):
         return rows[row_id]["paper"] if row_id in rows else None
@@ -366,19 +366,23 @@ _DESIGNED_ON = {"paper": "the paper's design model (rigid cables, no motor frict
 
 def gait_table(records: dict, quick: bool) -> list:
     """The shipped gaits the HZD experiments walk (:data:`_GAITS`), each with its designed speed,
-    step length and c_mt (from its gait file) beside the paper's gait it stands for."""
-    import json
+    step length, c_mt and torso travel (from its gait file, the travel on its design model's
+    orbit) beside the paper's gait it stands for and Appendix B's bound on the torso travel."""
+    from bipedlab.robots.mabel.walking import design as md
+    from bipedlab.robots.mabel.walking import study as wm
 
     out, papers = [], _paper_gaits()
     walked = {g for gs in _GAITS.values() for g in gs}
     for name in (g for g in ("paper-nominal", "paper-efficient", "nominal", "efficient", "fast") if g in walked):
-        d = json.loads((DATA / f"mabel_{name}.json").read_text())["payload"]
+        _, _, d = wm.load_gait(name)
         des, model = d["design"], d.get("design_model", "full")
         paper = papers.get(name.removeprefix("paper-"))
         cost = "c_mt" if d["cost"] == "cmt" else d["cost"]
+        travel = float(np.degrees(md.torso_travel(md.design_model(kind=model), wm.design_from_record(d))))
         out.append(dict(name=name, designed_on=f"{_DESIGNED_ON[model]}, {cost} cost", design_model=model,
                         cost=d["cost"], speed_mps=des["speed"], step_length_m=des["step_length"], cmt=des["cmt"],
-                        period_s=des["period"], paper=paper))
+                        period_s=des["period"], torso_travel_deg=travel,
+                        torso_travel_bound_deg=float(np.degrees(md.TORSO_TRAVEL)), paper=paper))
     return out
 
 
@@ -541,9 +545,7 @@ def _survived(run):
     facts = {k: run.get(k) for k in ("fell", "steps_completed", "toe_pulled", "toe_pulled_step", "min_normal_force_n",
                                      "friction_cone_exceeded", "max_friction_ratio", "force_n")}
     facts["how"] = ("fell" if run.get("fell") else
-                    f"did not fall, but its stance toe pulled on the ground ({run['min_normal_force_n']:.0f} N in step "
-                    f"{run['toe_pulled_step']}), which a pinned toe hides: the foot would have lifted"
-                    if run.get("toe_pulled") else "survived")
+                    f"did not fall, but {_toe_pulled(run)}" if run.get("toe_pulled") else "survived")
     return Measured(bool(not run.get("fell", True) and not run.get("toe_pulled", False)), facts)
 
 
@@ -567,10 +569,14 @@ def _pushed(run):
     if dig(run, "fell"):
         return Failed("fell after the push")
     if dig(run, "toe_pulled"):
-        return Failed(f"the pushed walk is not a physical one: its stance toe pulled on the ground "
-                      f"({run['min_normal_force_n']:.0f} N in step {run['toe_pulled_step']}), which the pinned toe of "
-                      "the stance model hides (the foot would have lifted); see row push_forward_survived")
+        return Failed(f"the pushed walk is not a physical one: {_toe_pulled(run)}; see row push_forward_survived")
     return None
+
+
+def _toe_pulled(run) -> str:
+    """What a pushed walk's pulled stance toe means, with the contact record's figures."""
+    return (f"its stance toe pulled on the ground ({run['min_normal_force_n']:.0f} N in step {run['toe_pulled_step']}), "
+            "which the pinned toe of the stance model hides: the foot would have lifted")
 
 
 def _recovered(run: dict, quick: bool):

@@ -61,7 +61,8 @@ FAST_GAIT_FALLS = {
 #: stance plant: (touchdowns before the fall, time of the fall in s), measured with
 #: :func:`bipedlab.robots.mabel.walking.study.walk` (100 steps asked) at eq. 42's shipped eps
 #: (controllers.EPS); every pairing not listed walks 100 steps (all 36 pairings of nominal,
-#: paper-nominal, paper-efficient and efficient measured on a 2-core AVX-512 Xeon). At the
+#: paper-nominal, paper-efficient and efficient measured on a 2-core AVX-512 Xeon; paper-efficient
+#: again when the design gained Appendix B's torso bound and it was re-designed: all nine walk). At the
 #: earlier eps 0.05 the decentralised controller fell on efficient (encoders, observer) and,
 #: marginally, on paper-efficient with the observer; at this eps they walk.
 GAIT_FALLS = {

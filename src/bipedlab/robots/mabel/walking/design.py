@@ -20,7 +20,9 @@ Equalities: periodicity (b, thetadot, bdot at theta- equal the decision values),
 thetadot > 0, positive normal force and |F_T / F_N| <= 0.6 along the step, the swing toe above
 the ground between lift-off and touchdown, the lifting toe leaving the ground, the swing toe landing at >= 0.1 m/s, the spring
 decompressing at theta_sc, the sub-phases in order, the spring compressed by at least BSP_MIN after MC, swing leg angle
-<= 220 deg and stance leg angle >= 140 deg, the motor torques within 30 / 55 N m, and optionally a minimum step length.
+<= 220 deg and stance leg angle >= 140 deg, the torso's range of travel over the step at most 5 deg (Appendix B; a soft range
+on the RK4 nodes, within 0.2 deg of the range), the motor torques within 30 / 55
+N m, and optionally a minimum step length.
 
 Costs: ``torque``, the integral of |u|^2 dt per step length (eq. 39); ``cmt``, the positive
 motor work per weight and distance (eqs. 40-41). SciPy's SLSQP with exact forward-mode
@@ -58,6 +60,10 @@ SPRING_RATE_MARGIN = 0.5
 BSP_MIN = 0.03
 #: the swing toe meets the ground descending at least this fast (m/s): a transversal touchdown
 TOUCHDOWN_RATE = 0.1
+#: range of travel of the torso over the step (Appendix B, "less than 5 deg"), rad
+TORSO_TRAVEL = float(np.deg2rad(5.0))
+#: sharpness of the soft range in :func:`torso_travel_margin`, 1/rad
+TORSO_SHARPNESS = 2000.0
 #: default upper bound on the step length (m): inactive unless a caller lowers it
 MAX_STEP = 2.0
 LIMITS = jnp.asarray([tb.TORQUE_CAPACITY["mLA"], tb.TORQUE_CAPACITY["mLS"]] * 2)
@@ -163,6 +169,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP):
         (jnp.deg2rad(220.0) - qss[:, 3]) * 5, (qss[:, 0] - jnp.deg2rad(140.0)) * 5,
         (1.0 - jnp.abs(us) / LIMITS).ravel(),
         jnp.stack([(step_length - min_step) * 5, (max_step - step_length) * 5]),
+        jnp.stack([torso_travel_margin(qss, starts, zm) * 5]),
     ])
     figures = dict(
         speed=v, step_length=step_length, period=T, torque_cost=wf[4] / step_length,
@@ -170,6 +177,20 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP):
         peak_torques=jnp.max(jnp.abs(us), 0), theta_plus=vc.theta_plus)
     return figures, eq, ineq, dict(vc=vc, z_plus=zp, z_minus=zm, thetas=thetas, w=ws, u=us, z=zs,
                                    grf=grf, toe=toe, transition=tr)
+
+
+def torso_travel_margin(qss, starts, zm):
+    """Appendix B's "range of travel of torso less than 5 deg" as one smooth inequality:
+    TORSO_TRAVEL minus a soft range (log-sum-exp maximum minus minimum, sharpness
+    TORSO_SHARPNESS) of the torso angles sampled on the step (the nodes up to theta_si, after
+    which the torso constraint holds it at q_Tor-, and the pre-impact state). The soft range
+    exceeds the range by at most 2 ln(n) / TORSO_SHARPNESS (0.2 deg for the 39 samples), so the
+    constraint is met with that margin at most; a pairwise form (every pair of samples within 5
+    deg) is exact but degenerate at its optimum, where SLSQP's line search stalls."""
+    tor = jnp.concatenate([qss[:starts[3], 5], zm[5:6]])
+    k = TORSO_SHARPNESS
+    soft_range = (jax.nn.logsumexp(k * tor) + jax.nn.logsumexp(-k * tor)) / k
+    return TORSO_TRAVEL - soft_range
 
 
 def initial_guess(speed: float = 0.8) -> np.ndarray:

@@ -37,6 +37,7 @@ import numpy as np
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import design as md
+from bipedlab.robots.mabel.walking import loop as sw
 from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
 from bipedlab.robots.mabel.walking import poincare as mp
 from bipedlab.robots.mabel.walking import stance as wk
@@ -448,7 +449,7 @@ def pd_gains(steps, progress, out, kp_scales=PD_SCALES, kd_scales=PD_SCALES, gai
 EXP4_LIMITS = (6.0, 10.0, 6.0, 10.0)
 #: the drivetrain's limits (N m), the other runs' saturation
 DRIVE_LIMITS = (30.0, 55.0, 30.0, 55.0)
-ACTUATORS = ("mLA_st", "mLS_st", "mLA_sw", "mLS_sw")
+ACTUATORS = sw.ACTUATORS
 EXP4_PAPER = dict(speed_mps=0.9, cmt=0.18, torso_rms_deg=0.89, torso_peak_deg=2.4, mLS_st_rms_deg=0.28,
                   mLS_st_peak_deg=39.5)
 
@@ -460,17 +461,12 @@ def limited_walk(gait, controller, steps, limits, sensing="encoders", progress=N
     fraction of samples in saturation per motor and the peak torques, both over the samples up
     to the last touchdown (or the fall)."""
     s, log, rec = wm.run_walk(gait, controller, steps, sensing=sensing, progress=progress, torque_limits=limits)
-    r = wm.metrics(s, log)
-    touched = np.nonzero(log["touched"])[0]
-    if r["fell"] and int(s.failed_at) >= 0:
-        n = int(s.failed_at) + 1
-    else:
-        n = int(touched[-1]) + 1 if touched.size else len(log["u"])
+    r = wm.metrics(s, log, limits)
+    n = sw.record_samples(s, log)
     u = np.asarray(log["u"][:n])
     lim = np.asarray(limits, float)
-    at = np.abs(u) >= lim * (1 - 1e-9)
     r.update(gait=gait, controller=controller, sensing=sensing, torque_limits_nm=[float(v) for v in lim],
-             samples=int(n), saturation_fraction={a: float(f) for a, f in zip(ACTUATORS, np.mean(at, 0))},
+             samples=int(n),
              peak_torques_nm=[float(v) for v in np.max(np.abs(u), 0)],
              designed_speed_mps=float(rec["design"]["speed"]))
     return r
@@ -606,7 +602,9 @@ HEADLINE_GAITS = ("paper-nominal", "nominal")
 HEADLINE_CONTROLLERS = ("iolin", "decentralized")
 #: what a headline run keeps of its walk record
 HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mps", "designed_speed_mps", "cmt",
-                 "tracking_rms_deg", "tracking_peak_deg", "peak_torques_nm", "toe_pulled", "min_normal_force_n")
+                 "tracking_rms_deg", "tracking_peak_deg", "peak_torques_nm", "toe_pulled", "min_normal_force_n",
+                 "saturation_fraction", "first_saturation_s", "rate_estimate_error_rms", "cable_stretch_rms_deg",
+                 "cable_stretch_peak_deg")
 
 
 def _joint_side(x: dict) -> dict:
@@ -657,6 +655,14 @@ def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
     return r
 
 
+def _drive_line(x: dict) -> str:
+    """A walk's saturation, rate-estimate error and cable stretch in one line."""
+    sat = ", ".join(f"{k} {100 * v:.1f} %" for k, v in x["saturation_fraction"].items() if v) or "none"
+    err, cab = x["rate_estimate_error_rms"], x.get("cable_stretch_rms_deg") or {}
+    return (f"saturated: {sat}; rate estimate error rms mLS_st {err['mLS_st']:.2f}, mLS_sw {err['mLS_sw']:.2f} rad/s"
+            + ("; cable stretch rms (motor side, deg) " + ", ".join(f"{k} {v:.0f}" for k, v in cab.items()) if cab else ""))
+
+
 def summary_full_plant(r: dict) -> str:
     lines = [f"13-DoF plant, PD + feedforward on encoders, {r['steps']} steps per gait:"]
     for g, by in (r.get("hzd_runs") or {}).items():
@@ -666,6 +672,7 @@ def summary_full_plant(r: dict) -> str:
             lines.append(f"    {c:>13}: {state}{x['tracking_rms_deg']['mLS_st']:.2f} / {x['tracking_peak_deg']['mLS_st']:.1f}"
                          f" (joint side {x['mLS_st_rms_joint_deg']:.3f} / {x['mLS_st_peak_joint_deg']:.2f}), torso "
                          f"{x['tracking_rms_deg']['Tor']:.2f}, peak torques {[round(t, 1) for t in x['peak_torques_nm']]}")
+            lines.append(f"{'':>19}{_drive_line(x)}")
     for g, x in r["runs"].items():
         paper = r["paper"].get(g)
         state = (f"FELL in step {x['steps_completed'] + 1}" if x["fell"] else

@@ -46,6 +46,7 @@ import numpy as np
 from bipedlab.pytree import pytree
 from bipedlab.robots.mabel import dynamics as md
 from bipedlab.robots.mabel import model as mm
+from bipedlab.robots.mabel import transmission as tr
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import loop as sw
 from bipedlab.robots.mabel.walking import stance as wk
@@ -151,10 +152,24 @@ def fell(m, setup: sw.Setup, p0: Plant, r, u, p: Plant):
             | (p.t_step > sw.MAX_STEP_TIME) | back)
 
 
+def cable_stretch(x, stance):
+    """Cable stretch of the stance and the swing leg, motor angle minus its rigid-cable value
+    (rad, motor side; :func:`bipedlab.robots.mabel.transmission.cable_stretch`), in the order
+    of the motors they stretch from: (mLA_st, mLS_st, mLA_sw, mLS_sw)."""
+    q = x[:13]
+
+    def leg(side):
+        return jnp.stack(tr.cable_stretch(*(q[_H[f"{c}_{side}"]] for c in tr.LOCAL)))
+
+    left, right = leg("L"), leg("R")
+    return jnp.where(stance == 0, jnp.concatenate([left, right]), jnp.concatenate([right, left]))
+
+
 def log(m, setup: sw.Setup, p0: Plant, r, u, p: Plant, c: sw.Ctrl) -> dict:
     """One row per sample, the keys of :func:`.loop.log` (``z`` the exact stance state, ``grf``
     the compliant ground's force on the stance toe) and the spring pulleys of the stance and
-    swing legs, the stance side and the stance toe's drift from its touchdown point (m)."""
+    swing legs, the stance side, the stance toe's drift from its touchdown point (m) and the
+    cable stretch of both legs (:func:`cable_stretch`)."""
     q, qd = stance_state(p0.x, p0.stance)
     y, yd = vcm.outputs(c.vc, c.phase, q, qd)
     grf = md.ground_forces(m, p0.x)[p0.stance]
@@ -164,7 +179,7 @@ def log(m, setup: sw.Setup, p0: Plant, r, u, p: Plant, c: sw.Ctrl) -> dict:
                 step=p0.step, touched=p.step != p0.step, hip=p.x[:2], force=sw.hip_force(setup, p0)[0],
                 distance=p.distance,
                 work=p.work_pos, bsp_st=bsp[p0.stance], bsp_sw=bsp[1 - p0.stance], stance=p0.stance,
-                toe_drift=toes[p0.stance, 0] - p0.toe_x)
+                toe_drift=toes[p0.stance, 0] - p0.toe_x, v_err=c.v_est - qd, stretch=cable_stretch(p0.x, p0.stance))
 
 
 _LOOPS: dict = {}
@@ -222,18 +237,24 @@ def gap_record(log, speed_per_step) -> dict:
     the stance toe's largest drift from its touchdown point (slip), the fraction of samples
     with the stance toe off the ground (rebound), and the mean of ``speed_per_step`` (one
     speed per completed step, :func:`.study.metrics`) with each leg in stance (the alternation
-    a period-two gait shows)."""
+    a period-two gait shows); the rms and peak cable stretch of each motor's cable (motor side,
+    deg; :func:`cable_stretch`), which a controller with the stance model's rigid cables does
+    not see."""
     spans = steps_of(log)
     end = spans[-1][1] if spans else len(np.asarray(log["step"]))
     if not end:
         return dict(stance_spring_peak_deg=None, swing_spring_peak_deg=None, max_toe_drift_m=None,
-                    stance_toe_airborne_fraction=None, speed_left_stance_mps=None, speed_right_stance_mps=None)
+                    stance_toe_airborne_fraction=None, speed_left_stance_mps=None, speed_right_stance_mps=None,
+                    cable_stretch_rms_deg=None, cable_stretch_peak_deg=None)
     side = np.asarray(log["stance"])[[a for a, _ in spans]]
     speeds = np.asarray(speed_per_step, float)[: len(spans)]
     mean = lambda v: float(np.mean(v)) if v.size else None  # noqa: E731
+    stretch = np.asarray(log["stretch"], float)[:end]
     return dict(
         stance_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_st"])[:end]))),
         swing_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_sw"])[:end]))),
         max_toe_drift_m=float(np.max(np.abs(np.asarray(log["toe_drift"])[:end]))),
         stance_toe_airborne_fraction=float(np.mean(np.asarray(log["grf"])[:end, 1] <= 0.0)),
-        speed_left_stance_mps=mean(speeds[side == 0]), speed_right_stance_mps=mean(speeds[side == 1]))
+        speed_left_stance_mps=mean(speeds[side == 0]), speed_right_stance_mps=mean(speeds[side == 1]),
+        cable_stretch_rms_deg=dict(zip(sw.ACTUATORS, np.degrees(np.sqrt(np.mean(stretch**2, 0))).tolist())),
+        cable_stretch_peak_deg=dict(zip(sw.ACTUATORS, np.degrees(np.max(np.abs(stretch), 0)).tolist())))

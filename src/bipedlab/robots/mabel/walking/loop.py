@@ -300,15 +300,47 @@ def contact_record(log, n_samples=None) -> dict:
                 if grf.size else None)
 
 
+#: the controller's torques, in its order
+ACTUATORS = ("mLA_st", "mLS_st", "mLA_sw", "mLS_sw")
+#: the stance coordinates whose rates the controller estimates, in the state's order
+RATES = ("LA_st", "mLS_st", "Bsp_st", "LA_sw", "mLS_sw", "Tor")
+
+
+def record_samples(s, log) -> int:
+    """The samples a walk's figures are taken over: up to the fall, else up to the last
+    touchdown (all samples when there was none)."""
+    touched = np.nonzero(np.asarray(log["touched"]))[0]
+    if fell_flag(s) and int(s.failed_at) >= 0:
+        return int(s.failed_at) + 1
+    return int(touched[-1]) + 1 if touched.size else len(np.asarray(log["u"]))
+
+
+def drive_record(log, limit, n: int) -> dict:
+    """How hard the controller drove the motors and how well it knew the rates, over the first
+    ``n`` samples: per actuator (:data:`ACTUATORS`) the fraction of samples at the torque
+    ``limit`` (N m) and the time of the first (s, None if never); per stance coordinate
+    (:data:`RATES`) the rms of the rate estimate's error, estimate minus exact (rad/s; 0 with
+    ``sensing="ideal"``)."""
+    u = np.asarray(log["u"], float)[:n]
+    at = np.abs(u) >= np.asarray(limit, float) * (1 - 1e-9)
+    err = np.asarray(log["v_err"], float)[:n]
+    first = [float(np.argmax(a) * SAMPLE) if a.any() else None for a in at.T]
+    return dict(saturation_fraction={a: float(f) for a, f in zip(ACTUATORS, np.mean(at, 0))},
+                first_saturation_s=dict(zip(ACTUATORS, first)),
+                rate_estimate_error_rms={k: float(v) for k, v in zip(RATES, np.sqrt(np.mean(err**2, 0)))})
+
+
 def log(m, setup: Setup, x0: Plant, r: Reading, u, x: Plant, c: Ctrl) -> dict:
     """One row per sample: state at its start, torque, outputs, sub-phase, theta, ground
-    reaction, step count, touchdown flag, hip position, push force, distance, positive work."""
+    reaction, step count, touchdown flag, hip position, push force, distance, positive work,
+    and the error of the controller's rate estimate (estimate minus exact)."""
     f = hip_force(setup, x0)
     y, yd = vcm.outputs(c.vc, c.phase, x0.z[:6], x0.z[6:])
     grf = wk.ground_reaction(m, x0.z, u, f)
     hip = cp.point_position(m.body, wk.embed(m, x.z)[0], "hip")
     return dict(z=x0.z, u=u, y=y, yd=yd, phase=c.phase, theta=vcm.theta(x0.z[:6]), grf=grf, step=x0.step,
-                touched=x.step != x0.step, hip=hip, force=f[0], distance=x.distance, work=x.work_pos)
+                touched=x.step != x0.step, hip=hip, force=f[0], distance=x.distance, work=x.work_pos,
+                v_err=c.v_est - x0.z[6:])
 
 
 def closed_loop(m, kind: str) -> sl.SampledLoop:

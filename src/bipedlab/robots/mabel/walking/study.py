@@ -328,7 +328,10 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
     return s, log, rec
 
 
-def metrics(s, log) -> dict:
+def metrics(s, log, limit) -> dict:
+    """A walk's figures from its final loop state and logs; ``limit``: the torque limits the
+    controller saturated at (N m, actuator order), for the saturation figures
+    (:func:`~bipedlab.robots.mabel.walking.loop.drive_record`)."""
     touched = np.nonzero(log["touched"])[0]
     n = int(s.x.step)
     t_imp = (touched + 1) * sw.SAMPLE
@@ -350,7 +353,7 @@ def metrics(s, log) -> dict:
                 tracking_peak_deg={k: float(v) for k, v in zip(OUTPUT_NAMES, np.degrees(np.max(np.abs(y), 0)))},
                 peak_torques_nm=[float(v) for v in np.max(np.abs(log["u"]), 0)],
                 speed_per_step=speed_steps, step_lengths_m=lengths.tolist(), step_durations_s=durations.tolist(),
-                **sw.contact_record(log, end))
+                **sw.contact_record(log, end), **sw.drive_record(log, limit, sw.record_samples(s, log)))
 
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
@@ -369,7 +372,7 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
                            loaded=loaded)
     r = dict(robot="mabel", gait=gait, plant=plant, controller=controller, sensing=sensing, impact_scale=eta,
              torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
-             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log))
+             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log, loaded[1].limit))
     pc = rec.get("poincare") or {}
     key = "hzd" if controller != "pdff" else "pdff"
     r["max_abs_eigenvalue"] = pc.get(key, {}).get("max_abs_eigenvalue")
