@@ -17,11 +17,26 @@ def _run(mls, tor, steps=100, fell=False):
                 mLS_st_rms_joint_deg=mls / 31.42)
 
 
-def _records(io_fell=False, steps=100):
+VARIANTS = ("fullplant_observer_mls_st_rms_ratio", "fullplant_observer_hzd_steps", "fullplant_ground_mls_st_rms_ratio",
+            "fullplant_ground_encoders_hzd_steps")
+
+
+def _records(io_fell=False, steps=100, variants=False):
     hzd = {"paper-nominal": dict(pdff=_run(6.8, 0.7), iolin=_run(2.5, 0.09, 1 if io_fell else steps, io_fell),
                                  decentralized=_run(2.4, 0.33, steps)),
-           "nominal": dict(pdff=_run(30.0, 0.8), iolin=_run(2.6, 0.06, steps), decentralized=_run(6.3, 0.2, steps))}
-    return {"full-plant": dict(steps=steps, hzd_runs=hzd)}
+           "nominal": dict(pdff=_run(30.0, 0.8), iolin=_run(2.6, 0.06, 1, True), decentralized=_run(6.3, 0.2, steps))}
+    fp = dict(steps=steps, hzd_runs=hzd)
+    if variants:
+        fp["hzd_runs_observer"] = {
+            "paper-nominal": dict(pdff=_run(6.9, 0.7), iolin=_run(2.3, 0.1), decentralized=_run(2.4, 0.3)),
+            "nominal": dict(pdff=_run(32.0, 0.8), iolin=_run(8.0, 0.2), decentralized=_run(8.1, 0.2, 90))}
+        fp["factor_runs"] = {
+            "1": dict(encoders=hzd["paper-nominal"], observer=fp["hzd_runs_observer"]["paper-nominal"],
+                      ideal=dict(pdff=_run(6.7, 0.7), iolin=_run(2.2, 0.1))),
+            "10": dict(encoders=dict(pdff=_run(7.9, 0.35), iolin=_run(1.05, 0.05, 26, True)),
+                       observer=dict(pdff=_run(7.1, 0.36), iolin=_run(2.1, 0.08)),
+                       ideal=dict(pdff=_run(7.9, 0.35), iolin=_run(0.46, 0.05)))}
+    return {"full-plant": fp}
 
 
 def _rows(records, quick=False):
@@ -36,18 +51,58 @@ def test_ratios_are_pd_over_the_compliant_controller_with_their_figures():
     assert isinstance(m, Measured) and m.value == pytest.approx(6.8 / 2.5)
     assert m.facts["pdff"] == 6.8 and m.facts["hzd"] == 2.5 and m.facts["hzd_joint"] == pytest.approx(2.5 / 31.42)
     assert out[IDS[1]].value == pytest.approx(0.7 / 0.09)
-    assert out[IDS[2]].value == 100 and out[IDS[2]].facts["which"] == "none"
+    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == "iolin on nominal"
 
 
 def test_a_fall_fails_the_ratios_and_names_the_run_in_the_steps_row():
     out = _rows(_records(io_fell=True))
     assert isinstance(out[IDS[0]], Failed) and "compliant controller fell" in out[IDS[0]].reason
-    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == "iolin on paper-nominal"
+    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == "iolin on paper-nominal, iolin on nominal"
 
 
 def test_the_quick_run_cannot_judge_78_steps_and_a_missing_experiment_is_skipped():
-    assert isinstance(_rows(_records(steps=8), quick=True)[IDS[2]], Skip)
+    records = _records(steps=8)
+    for by in records["full-plant"]["hzd_runs"].values():
+        by["iolin"] = _run(2.6, 0.06, 8)
+    assert isinstance(_rows(records, quick=True)[IDS[2]], Skip)
     assert all(isinstance(v, Skip) for v in _rows({}).values())
+
+
+def test_the_variants_trace_the_ratio_one_factor_at_a_time():
+    """The labelled variants: the observer's ratio and fewest steps beside the filtered
+    difference's; on the stiffer ground the ratio with exact rates beside the identified
+    ground's, and eq. 42's steps on the encoders there; the judged row's facts hold the whole
+    grid and the cell with the largest ratio (here the ground x 10 with exact rates, 7.9 / 0.46)."""
+    out = _rows(_records(variants=True))
+    obs, steps, ground, enc_steps = (out[i] for i in VARIANTS)
+    assert obs.value == pytest.approx(6.9 / 2.3) and obs.facts["encoders"] == "2.7x"
+    assert steps.value == 90 and steps.facts["which"] == "none" and steps.facts["encoders"] == 1
+    assert steps.facts["encoders_which"] == "iolin on nominal" and steps.facts["nominal_ratio"] == "4.0x"
+    assert ground.value == pytest.approx(7.9 / 0.46) and ground.facts["scale"] == 10.0
+    assert ground.facts["identified"] == "3.0x"
+    assert enc_steps.value == 26 and enc_steps.facts["ratio"] == "eq. 42 falls in step 27 (7.5x before)"
+    assert enc_steps.facts["reading"].endswith("the rate estimate decides whether eq. 42 walks")
+    traced = out[IDS[0]].facts["traced"]
+    assert "ground x 1, filtered difference: 2.7x" in traced and "ground x 10, bipedlab's observer: 3.4x" in traced
+    assert traced.endswith("the largest ratio, 17.2x, on the ground x 10 with the exact rates")
+
+
+def test_without_the_variants_their_rows_are_skipped_and_the_ratio_says_so():
+    out = _rows(_records())
+    assert all(isinstance(out[i], Skip) for i in VARIANTS)
+    assert "were not run" in out[IDS[0]].facts["traced"]
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    assert all(rows[i]["tolerance"]["kind"] == "report" for i in VARIANTS)
+
+
+def test_the_rows_render_from_the_variants_facts():
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    out = _rows(_records(variants=True))
+    for i in VARIANTS:
+        text = values.render(rows[i]["tolerance"]["why"], dict(out[i].facts, value=out[i].value), i)
+        assert "{" not in text
+    text = values.render(rows[IDS[0]]["departs_why"], dict(out[IDS[0]].facts, value=out[IDS[0]].value), IDS[0])
+    assert "the largest ratio, 17.2x" in text
 
 
 def test_the_rows_judge_the_order_of_magnitude_and_the_paper_shortest_walk():

@@ -111,6 +111,13 @@ def test_full_plant_refuses_impact_scaling(capsys):
                        "--plant full")
 
 
+def test_the_stance_plant_refuses_a_ground_scale_and_the_scale_has_a_range(capsys):
+    """--ground-scale is a 13-DoF plant option (the stance plant pins its toe), in 0.01 to 100:
+    one line, exit 2, before anything compiles."""
+    expect_usage_error(["walk", "mabel", "--steps", "4", "--ground-scale", "10"], capsys, "--ground-scale")
+    expect_usage_error(["walk", "mabel", "--plant", "full", "--ground-scale", "0"], capsys, "--ground-scale")
+
+
 def test_push_on_the_full_plant_speeds_up_and_slips_without_a_fall():
     """The paper's 78 N forward push over the second half of step 2, paper-nominal gait under
     PD + feedforward on the 13-DoF plant: the steps after it are faster than the unpushed ones
@@ -182,3 +189,25 @@ def test_eq42_at_pd_stiffness_with_exact_sensing_walks_the_full_plant():
     assert r["tracking_rms_deg"]["mLS_st"] < pd["tracking_rms_deg"]["mLS_st"] / 2
     # exact sensing: the controller's rates are the plant's, to the last bit
     assert all(v == 0.0 for v in r["rate_estimate_error_rms"].values())
+
+
+def test_the_ground_scale_multiplies_the_contact_force_and_only_the_full_plant_takes_it():
+    """``Setup.ground`` scales the compliant ground's stiffness and damping together: the normal
+    force of the Marhefka-Orin model (k d^n + c d^n dd, both terms linear in the constants) on
+    the toes of the post-impact state pressed 1 mm further into the ground and moving down is
+    exactly ``ground`` times the identified ground's, and scale 1 is that ground. The stance
+    plant pins its toe and refuses a scale (one clear error before anything compiles)."""
+    p = fp.initial_plant(_z_plus("paper-nominal"))
+    iy = mm.COORDS_13.index("y")
+    x = p.x.at[iy].add(-1e-3).at[13 + iy].set(-0.1)
+    vc, gains, rec = wm.load_gait("paper-nominal")
+    m = fp.plant_model()
+    base = np.asarray(mdyn.ground_forces(fp.grounded(m, wm.setup_for(vc, gains, 0.5)), x))
+    tenfold = np.asarray(mdyn.ground_forces(fp.grounded(m, wm.setup_for(vc, gains, 0.5, ground=10.0)), x))
+    np.testing.assert_array_equal(base, np.asarray(mdyn.ground_forces(m, x)))
+    assert np.all(base[:, 1] > 0)
+    np.testing.assert_allclose(tenfold[:, 1], 10.0 * base[:, 1], rtol=1e-12, atol=0)
+    with pytest.raises(ValueError, match="only the full plant"):
+        wm.walk("paper-nominal", "pdff", 1, ground=10.0)
+    with pytest.raises(ValueError, match="positive"):
+        wm.walk("paper-nominal", "pdff", 1, plant="full", ground=-1.0)

@@ -16,6 +16,7 @@ SPEED = float_in(0.1, 2.0)         # m/s; the designed gaits span 0.6-1.6
 STEP_LENGTH = float_in(0.2, 1.0)   # m; legs of 1 m, reached by continuation in 3 cm solves
 IMPACT_SCALE = float_in(0.5, 1.5)  # Table I spans 0.96-1
 LEAN = float_in(-45.0, 45.0)       # deg
+GROUND_SCALE = float_in(0.01, 100.0)  # the identified ground's stiffness and damping times this
 EXPERIMENTS = catalog.EXPERIMENTS
 PUSH_FORCE = catalog.PUSH_FORCE
 
@@ -87,6 +88,9 @@ def _walk_arguments(p) -> None:
                    help="stance: the model the gaits are designed on (rigid cables, pinned toe, rigid impact; "
                         "default); full: the 13-DoF model with cable stretch, compliant ground with LuGre "
                         "friction, a free swing spring and hard stops")
+    p.add_argument("--ground-scale", type=GROUND_SCALE, default=1.0, metavar="K",
+                   help="--plant full: the compliant ground's stiffness and damping times K (default 1: the ground "
+                        "identified from MABEL's hopping; a sensitivity, e.g. 10 for a floor ten times stiffer)")
     _out(p)
 
 
@@ -100,6 +104,9 @@ def _walk_validate(args) -> None:
     if args.plant == "full" and args.impact_scale != 1.0:
         raise UsageError("--plant full: --impact-scale applies to the stance plant only (the full plant's impact is "
                          "its compliant ground's)")
+    if args.plant != "full" and args.ground_scale != 1.0:
+        raise UsageError("--ground-scale applies to --plant full only (the stance plant pins its toe: it has no ground "
+                         "to scale)")
     gait = args.gait or catalog.DEFAULT_GAIT
     if gait not in catalog.GAITS and not os.path.isfile(gait):
         raise UsageError(f"--gait: {gait!r} is neither a shipped gait ({', '.join(catalog.GAITS)}) nor a file")
@@ -119,7 +126,7 @@ def _walk(args, progress):
     lean_steps = 20 if args.lean_steps is None else args.lean_steps
     rec = wm.walk(gait, args.controller or catalog.DEFAULT_CONTROLLER, args.steps or 100, push=args.push,
                   eta=args.impact_scale, sensing=args.sensing, out=args.out, progress=progress, lean_deg=args.lean,
-                  lean_steps=lean_steps, plant=args.plant, loaded=loaded)
+                  lean_steps=lean_steps, plant=args.plant, loaded=loaded, ground=args.ground_scale)
     return rec, wm.summary_walk
 
 

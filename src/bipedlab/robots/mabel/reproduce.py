@@ -335,8 +335,8 @@ HZD_EXPERIMENTS = (
               compare=False),
     _walk_exp("full-plant", "bipedlab experiment mabel full-plant", 100, QUICK_FULL_PLANT_STEPS,
               f"the two gaits designed on the paper's design model only, {QUICK_FULL_PLANT_STEPS} steps each instead "
-              "of 100 (and not the full-model gaits)", 60, 10, _GAITS["full-plant"],
-              gaits=["paper-nominal", "paper-efficient"]),
+              "of 100 (and not the full-model gaits); no variants of the headline (velocity observer, scaled ground)",
+              360, 10, _GAITS["full-plant"], gaits=["paper-nominal", "paper-efficient"], variants=False),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
@@ -527,13 +527,92 @@ def _headline(fp, quick: bool, out: dict) -> None:
             joint = (dict(pdff_joint=pd["mLS_st_rms_joint_deg"], hzd_joint=io["mLS_st_rms_joint_deg"])
                      if key == "mLS_st" else {})  # the joint side is the leg shape's (gear 31.42)
             out[rid] = Measured(a / b, dict(pdff=a, hzd=b, **joint))
-    runs = [(g, c, x) for g, by in hzd.items() for c, x in by.items() if c != "pdff"]
-    least = min(x["steps_completed"] for _, _, x in runs)
-    fell = [f"{c} on {g}" for g, c, x in runs if x["fell"]]
-    if quick and not fell:
+        if isinstance(out[ids[0]], Measured):
+            out[ids[0]].facts["traced"] = _traced(fp)
+    least, which = _fewest_steps(hzd)
+    if quick and which == "none":
         out[ids[2]] = Skip(f"the --quick run walks {fp['steps']} steps, fewer than the 78 the row asks")
     else:
-        out[ids[2]] = Measured(least, dict(which=", ".join(fell) or "none"))
+        out[ids[2]] = Measured(least, dict(which=which))
+    _headline_variants(fp, out)
+
+
+def _fewest_steps(hzd: dict):
+    """The fewest steps the eq. 42 controllers walked in headline runs ``hzd[gait][controller]``,
+    and which of them fell ("none" where none did)."""
+    runs = [(g, c, x) for g, by in hzd.items() for c, x in by.items() if c != "pdff"]
+    fell = [f"{c} on {g}" for g, c, x in runs if x["fell"]]
+    return min(x["steps_completed"] for _, _, x in runs), ", ".join(fell) or "none"
+
+
+def _stance_ratio(by: dict):
+    """PD + feedforward's stance leg-shape RMS error over eq. 42's in one headline block, or None
+    where either fell."""
+    pd, io = by["pdff"], by["iolin"]
+    return None if pd["fell"] or io["fell"] else pd["tracking_rms_deg"]["mLS_st"] / io["tracking_rms_deg"]["mLS_st"]
+
+
+def _ratio_text(by: dict) -> str:
+    """:func:`_stance_ratio` as text ("2.7x"), or eq. 42's fall with the ratio over the steps
+    walked before it."""
+    pd, io = by["pdff"], by["iolin"]
+    v = pd["tracking_rms_deg"]["mLS_st"] / io["tracking_rms_deg"]["mLS_st"]
+    if pd["fell"] or io["fell"]:
+        who = "eq. 42" if io["fell"] else "PD + feedforward"
+        return f"{who} falls in step {(io if io['fell'] else pd)['steps_completed'] + 1} ({v:.1f}x before)"
+    return f"{v:.1f}x"
+
+
+#: how the factor grid's rate estimates are named in the rows' texts
+_ESTIMATE = {"encoders": "filtered difference", "observer": "bipedlab's observer", "ideal": "exact rates"}
+
+
+def _traced(fp: dict) -> str:
+    """What experiment full-plant's factor grid shows of the headline ratio's cause: the ratio
+    on each ground with each rate estimate, and the cell where it is largest."""
+    grid = fp.get("factor_runs")
+    if not grid:
+        return "the variants that trace it (the ground, the rate estimate) were not run here"
+    cells = [(k, sn, by) for k, row in grid.items() for sn, by in row.items()]
+    text = "; ".join(f"ground x {k}, {_ESTIMATE.get(sn, sn)}: {_ratio_text(by)}" for k, sn, by in cells)
+    walked = [(_stance_ratio(by), k, sn) for k, sn, by in cells if _stance_ratio(by) is not None]
+    if not walked:
+        return text
+    best, k, sn = max(walked)
+    return f"{text}; the largest ratio, {best:.1f}x, on the ground x {k} with the {_ESTIMATE.get(sn, sn)}"
+
+
+def _headline_variants(fp: dict, out: dict) -> None:
+    """The rows of the headline's labelled variants (shown, not judged): the stance leg-shape
+    ratio and the fewest eq. 42 steps with the velocity observer; on the stiffest ground of the
+    factor grid, the ratio with exact rates and the steps eq. 42 walks on the encoders."""
+    obs, grid = fp.get("hzd_runs_observer"), fp.get("factor_runs")
+    ids = ("fullplant_observer_mls_st_rms_ratio", "fullplant_observer_hzd_steps", "fullplant_ground_mls_st_rms_ratio",
+           "fullplant_ground_encoders_hzd_steps")
+    if not obs or not grid:
+        out.update({i: Skip("the --quick run walks no variants of the headline") for i in ids})
+        return
+    scale = max(grid, key=float)
+    stiff = grid[scale]
+    base = dict(encoders=_ratio_text(fp["hzd_runs"]["paper-nominal"]))
+    for rid, by, facts in ((ids[0], obs["paper-nominal"], base),
+                           (ids[2], stiff["ideal"], dict(scale=float(scale), identified=_ratio_text(grid["1"]["ideal"])
+                                                         if "1" in grid else "not run"))):
+        v = _stance_ratio(by)
+        out[rid] = (Failed(f"a controller fell on this variant: {_ratio_text(by)}") if v is None
+                    else Measured(v, dict(pdff=by["pdff"]["tracking_rms_deg"]["mLS_st"],
+                                          hzd=by["iolin"]["tracking_rms_deg"]["mLS_st"], **facts)))
+    least, which = _fewest_steps(obs)
+    enc_least, enc_which = _fewest_steps(fp["hzd_runs"])
+    out[ids[1]] = Measured(least, dict(which=which, encoders=enc_least, encoders_which=enc_which,
+                                       nominal_ratio=_ratio_text(obs["nominal"])))
+    io = stiff["encoders"]["iolin"]
+    exact_walks = not stiff["ideal"]["iolin"]["fell"]
+    reading = ("with exact rates it walks: on this floor the rate estimate decides whether eq. 42 walks" if io["fell"]
+               and exact_walks else f"with exact rates it {'walks' if exact_walks else 'falls too'}")
+    out[ids[3]] = Measured(io["steps_completed"], dict(scale=float(scale), fell=io["fell"], reading=reading,
+                                                       ratio=_ratio_text(stiff["encoders"]),
+                                                       observer=_ratio_text(stiff["observer"])))
 
 
 def _survived(run):

@@ -449,7 +449,6 @@ def pd_gains(steps, progress, out, kp_scales=PD_SCALES, kd_scales=PD_SCALES, gai
 EXP4_LIMITS = (6.0, 10.0, 6.0, 10.0)
 #: the drivetrain's limits (N m), the other runs' saturation
 DRIVE_LIMITS = (30.0, 55.0, 30.0, 55.0)
-ACTUATORS = sw.ACTUATORS
 EXP4_PAPER = dict(speed_mps=0.9, cmt=0.18, torso_rms_deg=0.89, torso_peak_deg=2.4, mLS_st_rms_deg=0.28,
                   mLS_st_peak_deg=39.5)
 
@@ -607,6 +606,20 @@ HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mp
                  "cable_stretch_peak_deg")
 
 
+#: the headline's labelled variants on the 13-DoF plant, neither the paper's setup: they trace
+#: what holds the compliant controller's stance leg-shape tracking. The rates from the
+#: model-based velocity observer (bipedlab's, ``sensing="observer"``) instead of the filtered
+#: difference, on the headline gaits under the three controllers; and on FACTOR_GAIT under PD +
+#: feedforward and eq. 42, a grid of grounds (the identified ground's stiffness and damping times
+#: each of GROUND_SCALES; the identified ground takes 2-3 mm of penetration and dissipates nearly
+#: all of the impact) by rate estimates (FACTOR_SENSING: the filtered difference, the observer,
+#: the exact rates)
+VARIANT_SENSING = "observer"
+GROUND_SCALES = (1.0, 10.0)
+FACTOR_SENSING = ("encoders", "observer", "ideal")
+FACTOR_GAIT = "paper-nominal"
+
+
 def _joint_side(x: dict) -> dict:
     """The stance leg-shape errors on the joint side: the motor-side figures over the leg-shape
     gear ratio (the paper's conversion, Sec. V-D)."""
@@ -614,30 +627,53 @@ def _joint_side(x: dict) -> dict:
                 mLS_st_peak_joint_deg=x["tracking_peak_deg"]["mLS_st"] / tb.GEAR_LS)
 
 
-def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS):
+def _headline_run(x: dict) -> dict:
+    """What a headline run keeps of its walk record (HEADLINE_KEYS), with the stance leg-shape
+    errors on the joint side."""
+    return dict({k: x[k] for k in HEADLINE_KEYS}, **_joint_side(x))
+
+
+def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, variants=True):
     """The design-to-robot gap (Sections V-A, V-C, VI-C): each gait under PD + feedforward on
     encoders at 1 kHz on the 13-DoF plant (:mod:`.full_plant`), beside its designed c_mt; Fig.
     20 for the first gait when ``out`` is given. The headline comparison (Sec. V-D): each gait
     of ``headline`` also under the compliant zero-dynamics controller (eq. 42) and its
     decentralised form, on the same plant and encoders (``hzd_runs[gait][controller]``; the
-    stance leg-shape errors also on the joint side)."""
+    stance leg-shape errors also on the joint side). With ``variants``, the labelled variants
+    that trace the headline's figures: the same runs with the velocity observer
+    (``hzd_runs_observer``), and FACTOR_GAIT under PD + feedforward and eq. 42 on each ground
+    of GROUND_SCALES with each rate estimate of FACTOR_SENSING
+    (``factor_runs[scale][sensing][controller]``; the runs above are not walked again)."""
     runs, hzd = {}, {}
     n = steps or 100
+
+    def walk(g, c, **kw):
+        if progress:
+            progress(f"{g} under {c} on the 13-DoF plant" + "".join(f", {k} {v}" for k, v in kw.items()))
+        return wm.walk(g, c, n, plant="full", **kw)
+
     for k, g in enumerate(gaits):
         if progress:
             progress(f"{g} on the 13-DoF plant")
         runs[g] = wm.walk(g, "pdff", n, plant="full", out=f"{out}/{g}" if out and k == 0 else None)
     for g in headline:
-        hzd[g] = {}
-        for c in ("pdff",) + HEADLINE_CONTROLLERS:
-            x = runs.get(g) if c == "pdff" else None
-            if x is None:
-                if progress:
-                    progress(f"{g} under {c} on the 13-DoF plant")
-                x = wm.walk(g, c, n, plant="full")
-            hzd[g][c] = dict({k: x[k] for k in HEADLINE_KEYS}, **_joint_side(x))
-    return dict(experiment="full-plant", controller="pdff", sensing="encoders", steps=n, runs=runs,
-                hzd_runs=hzd, paper=GAP_PAPER)
+        hzd[g] = {c: _headline_run(runs.get(g) if c == "pdff" and g in runs else walk(g, c))
+                  for c in ("pdff",) + HEADLINE_CONTROLLERS}
+    r = dict(experiment="full-plant", controller="pdff", sensing="encoders", steps=n, runs=runs,
+             hzd_runs=hzd, paper=GAP_PAPER)
+    if variants:
+        obs = r["hzd_runs_observer"] = {g: {c: _headline_run(walk(g, c, sensing=VARIANT_SENSING))
+                                            for c in ("pdff",) + HEADLINE_CONTROLLERS} for g in headline}
+        done = {("encoders", 1.0): hzd.get(FACTOR_GAIT), (VARIANT_SENSING, 1.0): obs.get(FACTOR_GAIT)}
+
+        def cell(sensing, k, c):
+            x = (done.get((sensing, k)) or {}).get(c)
+            return x if x is not None else _headline_run(walk(FACTOR_GAIT, c, sensing=sensing, ground=k))
+
+        r["factor_gait"] = FACTOR_GAIT
+        r["factor_runs"] = {f"{k:g}": {sn: {c: cell(sn, k, c) for c in ("pdff", "iolin")} for sn in FACTOR_SENSING}
+                            for k in GROUND_SCALES}
+    return r
 
 
 _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tracking,
@@ -663,16 +699,36 @@ def _drive_line(x: dict) -> str:
             + ("; cable stretch rms (motor side, deg) " + ", ".join(f"{k} {v:.0f}" for k, v in cab.items()) if cab else ""))
 
 
+def _headline_lines(title: str, by: dict) -> list:
+    """A headline block of the summary: per controller, the stance leg-shape and torso errors,
+    peak torques and the drive line."""
+    lines = [f"  {title}, stance leg-shape motor rms / peak (deg), torso rms (deg), per controller:"]
+    for c, x in by.items():
+        state = f"FELL in step {x['steps_completed'] + 1}; " if x["fell"] else ""
+        lines.append(f"    {c:>13}: {state}{x['tracking_rms_deg']['mLS_st']:.2f} / {x['tracking_peak_deg']['mLS_st']:.1f}"
+                     f" (joint side {x['mLS_st_rms_joint_deg']:.3f} / {x['mLS_st_peak_joint_deg']:.2f}), torso "
+                     f"{x['tracking_rms_deg']['Tor']:.2f}, peak torques {[round(t, 1) for t in x['peak_torques_nm']]}")
+        lines.append(f"{'':>19}{_drive_line(x)}")
+    return lines
+
+
 def summary_full_plant(r: dict) -> str:
     lines = [f"13-DoF plant, PD + feedforward on encoders, {r['steps']} steps per gait:"]
     for g, by in (r.get("hzd_runs") or {}).items():
-        lines.append(f"  {g}, stance leg-shape motor rms / peak (deg), torso rms (deg), per controller:")
-        for c, x in by.items():
-            state = f"FELL in step {x['steps_completed'] + 1}; " if x["fell"] else ""
-            lines.append(f"    {c:>13}: {state}{x['tracking_rms_deg']['mLS_st']:.2f} / {x['tracking_peak_deg']['mLS_st']:.1f}"
-                         f" (joint side {x['mLS_st_rms_joint_deg']:.3f} / {x['mLS_st_peak_joint_deg']:.2f}), torso "
-                         f"{x['tracking_rms_deg']['Tor']:.2f}, peak torques {[round(t, 1) for t in x['peak_torques_nm']]}")
-            lines.append(f"{'':>19}{_drive_line(x)}")
+        lines += _headline_lines(g, by)
+    for g, by in (r.get("hzd_runs_observer") or {}).items():
+        lines += _headline_lines(f"{g} with the velocity observer (bipedlab's) instead of the filtered difference", by)
+    if r.get("factor_runs"):
+        lines.append(f"  {r['factor_gait']}, stance leg-shape motor rms (deg) under PD + feedforward / eq. 42, by ground "
+                     "(stiffness and damping x K) and rate estimate:")
+
+        def one(x):
+            return f"{x['tracking_rms_deg']['mLS_st']:.2f}" + (f" (FELL in step {x['steps_completed'] + 1})"
+                                                                  if x["fell"] else "")
+
+        for k, grid in r["factor_runs"].items():
+            for sn, by in grid.items():
+                lines.append(f"    K {k:>4}, {sn:>8}: {one(by['pdff'])} / {one(by['iolin'])}")
     for g, x in r["runs"].items():
         paper = r["paper"].get(g)
         state = (f"FELL in step {x['steps_completed'] + 1}" if x["fell"] else

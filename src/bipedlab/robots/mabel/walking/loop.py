@@ -78,7 +78,10 @@ class Setup:
     :func:`~bipedlab.robots.mabel.walking.constraints.lean`) reached in ``lean_steps`` equal increments, one
     per touchdown (Exp. 5); ``observer`` 1.0 estimates the rates with the model-based observer
     of :func:`_rate_estimate` instead of the filtered difference (0.0); the push starts
-    ``push_start`` nominal periods into its step (0.5: the second half, as Exp. 2)."""
+    ``push_start`` nominal periods into its step (0.5: the second half, as Exp. 2); ``ground``
+    scales the compliant ground's stiffness and damping on the 13-DoF plant (:mod:`.full_plant`;
+    1.0: ``tables.GROUND``, the hopping-identified ground; the stance plant pins its toe and
+    ignores it)."""
 
     vc: vcm.Constraints
     gains: ctl.Gains
@@ -91,6 +94,7 @@ class Setup:
     lean_steps: jax.Array = 1
     observer: jax.Array = 0.0
     push_start: jax.Array = 0.5
+    ground: jax.Array = 1.0
 
 
 @pytree
