@@ -41,6 +41,7 @@ CONTEXT = {
     ("run atrias", "--step-height"): ["--terrain", "rough"],
     ("run atrias", "--slope"): ["--terrain", "slope"],
     ("walk mabel", "--lean-steps"): ["--lean", "5"],
+    ("walk mabel", "--ground-scale"): ["--plant", "full"],
     ("experiment mabel", "--steps"): [],
 }
 for _name in PARSERS:  # a multi-process launch names its coordinator and its place
