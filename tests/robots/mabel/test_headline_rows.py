@@ -112,6 +112,20 @@ def test_the_rows_judge_the_order_of_magnitude_and_the_paper_shortest_walk():
     assert values.agrees(77, rows[IDS[2]]["tolerance"]) is False and rows[IDS[2]]["survival_only"] is True
 
 
+def test_the_judged_gait_is_the_records_and_the_rows_name_it():
+    """The ratios are read on the gait the record names as judged (the experiment's
+    HEADLINE_JUDGED, the gait closest to the paper's), and the rows name that gait."""
+    records = _records()
+    records["full-plant"]["judged_gait"] = "nominal"
+    records["full-plant"]["hzd_runs"]["nominal"]["iolin"] = _run(2.6, 0.06)
+    out = _rows(records)
+    assert out[IDS[0]].value == pytest.approx(30.0 / 2.6) and out[IDS[1]].value == pytest.approx(0.8 / 0.06)
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    assert wx.HEADLINE_JUDGED in wx.HEADLINE_GAITS and wx.FACTOR_GAIT == wx.HEADLINE_JUDGED
+    for i in IDS[:2] + ("fullplant_observer_mls_st_rms_ratio", "fullplant_ground_mls_st_rms_ratio"):
+        assert rows[i]["gait"] == wx.HEADLINE_JUDGED
+
+
 def test_the_experiment_keeps_the_joint_side_at_the_leg_shape_gear():
     x = dict(tracking_rms_deg=dict(mLS_st=31.42), tracking_peak_deg=dict(mLS_st=62.84))
     assert wx._joint_side(x) == dict(mLS_st_rms_joint_deg=pytest.approx(1.0), mLS_st_peak_joint_deg=pytest.approx(2.0))

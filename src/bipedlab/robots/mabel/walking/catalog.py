@@ -12,8 +12,10 @@ from __future__ import annotations
 
 #: shipped gaits: ``nominal``, ``efficient`` and ``fast`` designed on the full design model (the
 #: experiments walk them); ``paper-nominal`` and ``paper-efficient`` are what ``optimize mabel
-#: --speed 0.8 --cost torque|cmt`` gives on the default (paper) design model
-GAITS = ("nominal", "efficient", "fast", "paper-nominal", "paper-efficient")
+#: --speed 0.8 --cost torque|cmt`` gives on the default (paper) design model; ``paper-575`` is
+#: the torque gait of that model at the paper's nominal step, ``optimize mabel --speed 0.8
+#: --step-length 0.575`` (the gait closest to the paper's Exp. 1 gait: restricted map 0.709)
+GAITS = ("nominal", "efficient", "fast", "paper-nominal", "paper-efficient", "paper-575")
 DEFAULT_GAIT = "nominal"
 #: controllers of the walking loop: PD + feedforward (eq. 43), I/O linearisation with the
 #: hybrid-invariance corrections, and its decentralised form
@@ -62,7 +64,8 @@ FAST_GAIT_FALLS = {
 #: :func:`bipedlab.robots.mabel.walking.study.walk` (100 steps asked) at eq. 42's shipped eps
 #: (controllers.EPS); every pairing not listed walks 100 steps (all 36 pairings of nominal,
 #: paper-nominal, paper-efficient and efficient measured on a 2-core AVX-512 Xeon; paper-efficient
-#: again when the design gained Appendix B's torso bound and it was re-designed: all nine walk). At the
+#: again when the design gained Appendix B's torso bound and it was re-designed: all nine walk;
+#: paper-575's nine when it was shipped: all walk). At the
 #: earlier eps 0.05 the decentralised controller fell on efficient (encoders, observer) and,
 #: marginally, on paper-efficient with the observer; at this eps they walk.
 GAIT_FALLS = {

@@ -596,8 +596,11 @@ GAP_PAPER = {"paper-nominal": dict(designed=0.0452, realised=0.15), "paper-effic
 
 
 #: the headline comparison on the 13-DoF plant (Sec. V-D, Exps. 1, 4, 5): these gaits under the
-#: eq. 42 controllers, beside their PD + feedforward runs of :func:`full_plant`
-HEADLINE_GAITS = ("paper-nominal", "nominal")
+#: eq. 42 controllers, beside their PD + feedforward runs of :func:`full_plant` (paper-575: the
+#: paper's design model at the paper's step, the gait closest to the paper's)
+HEADLINE_GAITS = ("paper-nominal", "nominal", "paper-575")
+#: the headline gait whose ratios the report judges: the one closest to the paper's gait
+HEADLINE_JUDGED = "paper-575"
 HEADLINE_CONTROLLERS = ("iolin", "decentralized")
 #: what a headline run keeps of its walk record
 HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mps", "designed_speed_mps", "cmt",
@@ -617,7 +620,7 @@ HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mp
 VARIANT_SENSING = "observer"
 GROUND_SCALES = (1.0, 10.0)
 FACTOR_SENSING = ("encoders", "observer", "ideal")
-FACTOR_GAIT = "paper-nominal"
+FACTOR_GAIT = HEADLINE_JUDGED
 
 
 def _joint_side(x: dict) -> dict:
@@ -660,7 +663,7 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
         hzd[g] = {c: _headline_run(runs.get(g) if c == "pdff" and g in runs else walk(g, c))
                   for c in ("pdff",) + HEADLINE_CONTROLLERS}
     r = dict(experiment="full-plant", controller="pdff", sensing="encoders", steps=n, runs=runs,
-             hzd_runs=hzd, paper=GAP_PAPER)
+             hzd_runs=hzd, judged_gait=HEADLINE_JUDGED, paper=GAP_PAPER)
     if variants:
         obs = r["hzd_runs_observer"] = {g: {c: _headline_run(walk(g, c, sensing=VARIANT_SENSING))
                                             for c in ("pdff",) + HEADLINE_CONTROLLERS} for g in headline}
