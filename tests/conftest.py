@@ -75,6 +75,46 @@ def pytest_unconfigure(config):
         shutil.rmtree(path, ignore_errors=True)
 
 
+# ----- longest modules first ----------------------------------------------------------------
+#: The test modules that take longest (seconds of setup + calls + teardown, the mean of two
+#: default-tier runs on a two-core Xeon; BIPEDLAB_TEST_COMPILE_PROFILE prints the current ones).
+#: The workers take modules in collection order (--dist loadfile), so a long module collected
+#: last keeps one worker busy while the other idles; these go first, the short ones fill the end.
+LONGEST_FIRST = (
+    "robots/imported/test_stable_by_design.py",   # 100 s
+    "test_robustness_resume.py",                  # 97 s
+    "test_docs.py",                               # 78 s
+    "test_reproduce_resume.py",                   # 76 s
+    "robots/mabel/sysid/test_sysid_cli.py",       # 73 s
+    "robots/seven_link/test_walk_seven_link.py",  # 64 s
+    "robots/five_link/test_five_link_cli.py",     # 54 s
+    "robots/mabel/test_mabel_model.py",           # 48 s
+    "robots/five_link/test_five_link_gait.py",    # 46 s
+    "robots/atrias/test_atrias_controller.py",    # 45 s
+    "test_cli.py",                                # 41 s
+    "robots/mabel/test_hop_mabel.py",             # 41 s
+    "core/sim/test_gradients.py",                 # 38 s
+    "robots/seven_link/test_seven_link_boom.py",  # 37 s
+    "robots/mabel/test_mabel_full_plant.py",      # 33 s
+    "test_reproduce_browser.py",                  # 26 s
+)
+
+
+def _module_rank(item) -> int:
+    rel = os.path.relpath(str(item.fspath), os.path.dirname(__file__)).replace(os.sep, "/")
+    return LONGEST_FIRST.index(rel) if rel in LONGEST_FIRST else len(LONGEST_FIRST)
+
+
+def pytest_collection_modifyitems(session, config, items):
+    """The modules of LONGEST_FIRST first, in its order; every other one after them in
+    collection order (a stable sort: the tests inside a module keep their order)."""
+    here = os.path.dirname(__file__)
+    gone = [m for m in LONGEST_FIRST if not os.path.exists(os.path.join(here, m))]
+    if gone:
+        raise pytest.UsageError(f"tests/conftest.py LONGEST_FIRST names modules that do not exist: {gone}")
+    items.sort(key=_module_rank)
+
+
 @pytest.fixture(scope="session")
 def mujoco():
     return pytest.importorskip("mujoco")
@@ -132,7 +172,10 @@ def pytest_sessionfinish(session, exitstatus):
     import json
 
     os.makedirs(_PROFILE_DIR, exist_ok=True)
+    import time
+
     name = os.environ.get("PYTEST_XDIST_WORKER", "main")
+    _profile["(process ended)"] = {"unix_time": time.time()}
     with open(os.path.join(_PROFILE_DIR, f"compile-{name}.json"), "w") as f:
         json.dump(_profile, f, indent=0)
 
@@ -144,12 +187,18 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
     import json
 
     modules: dict = {}
+    ended: dict = {}
     for path in glob.glob(os.path.join(_PROFILE_DIR, "compile-*.json")):
         with open(path) as f:
-            for test, row in json.load(f).items():
-                m = modules.setdefault(test.split("::")[0], {})
-                for k, v in row.items():
-                    m[k] = m.get(k, 0) + v
+            rows = json.load(f)
+        end = rows.pop("(process ended)", {}).get("unix_time")
+        worker = os.path.basename(path)[len("compile-"):-len(".json")]
+        if end is not None and worker != "main":
+            ended[worker] = end
+        for test, row in rows.items():
+            m = modules.setdefault(test.split("::")[0], {})
+            for k, v in row.items():
+                m[k] = m.get(k, 0) + v
     total = lambda r: r.get("trace_s", 0) + r.get("lower_s", 0) + r.get("compile_s", 0)  # noqa: E731
     terminalreporter.write_sep("=", "compile seconds per module (trace + lower + XLA compile, programs, cache hits)")
     for mod, r in sorted(modules.items(), key=lambda kv: -total(kv[1]))[:40]:
@@ -157,3 +206,6 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
                                     f"{r.get('compile_s', 0):6.1f})  {r.get('programs', 0):5d} programs  "
                                     f"{r.get('cache_hits', 0):5d} hits  {mod}")
     terminalreporter.write_line(f"{sum(total(r) for r in modules.values()):8.1f} s  in all")
+    if len(ended) > 1:  # the idle tail: the first worker to finish waited this long for the last
+        last, first = max(ended.values()), min(ended.values())
+        terminalreporter.write_line(f"workers ended {last - first:.1f} s apart ({', '.join(sorted(ended))})")
