@@ -67,7 +67,7 @@ def test_push_search_finds_the_forces_for_plus_and_minus_45_percent():
     reference the unpushed speed): the forward force is positive, the backward one negative,
     and the peak speed change a walk at each force reaches is +-45 % within the search
     tolerance SEARCH_TOL (one percentage point)."""
-    base = wm.walk("nominal", "pdff", 14)
+    base = wm.walk(wx.GAIT, "pdff", 14)
     ref = float(np.mean(base["speed_per_step"][5:]))
     for target, f0 in zip(wx.TARGET_CHANGES, wx.PUSHES):
         x = wx.search_push("pdff", target, f0, ref, wx.PUSH_STEP + 4)
@@ -88,7 +88,7 @@ def test_reduced_push_experiment_is_the_full_ones_paper_force_runs():
     assert "force_for_plus_45pct_n" not in r and r["push_step"] == 2
     assert [(x["controller"], x["force_n"]) for x in r["runs"]] == [("pdff", f) for f in wx.PUSHES]
     for x in r["runs"]:
-        direct = wm.walk("nominal", "pdff", 5, push=(x["force_n"], 2))
+        direct = wm.walk(wx.GAIT, "pdff", 5, push=(x["force_n"], 2))
         assert x["speed_per_step"] == direct["speed_per_step"]
         assert np.sign(x["peak_speed_change"]) == np.sign(x["force_n"])
     with pytest.raises(ValueError, match="both"):

@@ -26,6 +26,9 @@ def table(paper):
 def test_the_experiments_gaits_are_the_walking_experiments_own():
     g = R._GAITS
     assert g["efficient"] == (wx.EXP3_GAIT,)
+    for name in ("nominal", "push", "tracking", "impact-scaling", "exp4"):
+        assert g[name] == (wx.GAIT,), name
+    assert g["fast"] == (wx.GAIT, "fast")
     assert g["pd-gains"] == tuple(wx.PD_GAITS)
     assert set(g["full-plant"]) == set(wx.GAP_GAITS) | set(wx.HEADLINE_GAITS)
     assert set(g) == {e.name for e in R.HZD_EXPERIMENTS}
@@ -38,8 +41,8 @@ def test_every_row_names_a_gait_some_experiment_walks(paper, table):
         names = [n.split(" (")[0].strip() for n in r["gait"].split(",")]
         assert names and all(n in table for n in names), (r["id"], r["gait"])
     byid = {r["id"]: r["gait"] for r in rows}
-    # the design rows are the paper-model designs; Exp. 1 walks the full-model gait
-    assert byid["nominal_step_length_m"] == "paper-nominal" and byid["exp1_speed_mps"] == "nominal"
+    # the design rows are the paper-model designs; Exp. 1 walks the paper model's gait at the paper's step
+    assert byid["nominal_step_length_m"] == "paper-nominal" and byid["exp1_speed_mps"] == wx.GAIT == "paper-575"
     assert byid["exp3_cmt"] == wx.EXP3_GAIT
 
 
@@ -56,7 +59,7 @@ def test_the_gait_table_is_each_gait_files_design_beside_the_papers_gait(table):
     assert table["paper-efficient"]["paper"]["cmt"] == 0.0385 and table["paper-efficient"]["paper"]["step_length_m"] is None
     assert table["fast"]["paper"] is None  # Exp. 5 leans the nominal gait; the paper designs no fast gait
     assert table["paper-nominal"]["design_model"] == "paper" and table["nominal"]["design_model"] == "full"
-    assert "tracking" in table["nominal"]["walked_by"] and "efficient" in table["paper-efficient"]["walked_by"]
+    assert "tracking" in table["paper-575"]["walked_by"] and "efficient" in table["paper-efficient"]["walked_by"]
 
 
 def test_the_page_shows_the_gait_table_and_each_rows_gait(paper, table):

@@ -1,5 +1,9 @@
 """The experiments of the compliant-HZD paper (Sections V-VI) as simulation studies.
 
+The experiments that compare with the robot's walks (Exps. 1, 2, 4, 5, tracking, Table I) walk
+:data:`GAIT` (``paper-575``, the paper's design model at the paper's 0.575 m step); each record
+names its gait.
+
 - ``nominal`` (Exp. 1): the nominal gait under PD + feedforward, 1 kHz, 14-bit encoders.
 - ``push`` (Exp. 2): the forward and backward forces on the hip, over the second half of a step,
   that change the speed by +45 % and -45 % as the paper's pushes did on the robot, found by a
@@ -44,6 +48,8 @@ from bipedlab.robots.mabel.walking import stance as wk
 from bipedlab.robots.mabel.walking import study as wm
 
 NAMES = catalog.EXPERIMENTS
+#: the gait of Exps. 1, 2, 4, 5, the tracking comparison and Table I (catalog.EXPERIMENT_GAIT)
+GAIT = catalog.EXPERIMENT_GAIT
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
 PUSHES = (78.0, -71.0)
 #: pushes the decentralised HZD controller survives in this model (N, + forward)
@@ -143,7 +149,7 @@ def bracket_force(change_of, target, f0, tol=SEARCH_TOL, max_walks=SEARCH_WALKS,
 
 
 def nominal(steps, progress, out):
-    r = _walk("nominal", "pdff", steps or 100, progress, out=out)
+    r = _walk(GAIT, "pdff", steps or 100, progress, out=out)
     r["paper"] = dict(designed_speed_mps=0.8, experimental_speed_mps=1.0, steps=78)
     return r
 
@@ -172,7 +178,7 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
     seen = {}
 
     def change_of(force):
-        r = _walk("nominal", controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step))
+        r = _walk(GAIT, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step))
         c = peak_change(r["speed_per_step"], push_step, ref, direction)
         seen[float(force)] = (c, r["fell"], r["steps_completed"])
         # a walk that falls short of the target before its fall tells nothing of the change the
@@ -180,7 +186,7 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
         return None if r["fell"] and (c is None or abs(c - target) > tol) else c
 
     force, change, walks, ok = bracket_force(change_of, target, f0, tol, max_walks)
-    r = _walk("nominal", controller, steps, progress, push=(force, push_step))
+    r = _walk(GAIT, controller, steps, progress, push=(force, push_step))
     row = _push_row(r, controller, force, push_step, ref, direction)
     return dict(target_change=target, converged=ok, tolerance=tol, walks=[
         dict(force_n=f, speed_change=seen[f][0], fell=seen[f][1], steps_completed=seen[f][2]) for f, _ in walks],
@@ -214,7 +220,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     steps = steps or 30
     refs = {}
     for controller in controllers:
-        base = _walk("nominal", controller, steps, progress)
+        base = _walk(GAIT, controller, steps, progress)
         refs[controller] = float(np.mean(base["speed_per_step"][reference_from:]))
     paper = dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
                  backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3))
@@ -224,14 +230,14 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
             continue
         ref = refs[controller]
         for force in pushes:
-            r = _walk("nominal", controller, steps, progress, push=(force, push_step),
+            r = _walk(GAIT, controller, steps, progress, push=(force, push_step),
                       out=f"{out}/{controller}_{force:+.0f}N" if out else None)
             row = _push_row(r, controller, force, push_step, ref, np.sign(force))
             peak, back = _recovery(r["speed_per_step"], push_step, ref)
             # and as before: the largest change either way, the steps until first back within 2 %
             row.update(peak_speed_change=peak, steps_to_recover=back)
             runs.append(row)
-    rec = dict(experiment="push", push_step=push_step, recovery_tolerance=RECOVERY_TOL, unpushed_speed_mps=refs,
+    rec = dict(experiment="push", gait=GAIT, push_step=push_step, recovery_tolerance=RECOVERY_TOL, unpushed_speed_mps=refs,
                runs=runs, paper=paper)
     if not search:
         return rec
@@ -244,7 +250,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     plus, minus = searches[:2]
     at_pdff = []
     for x in (plus, minus):
-        r = _walk("nominal", "decentralized", steps, progress, push=(x["force_n"], push_step))
+        r = _walk(GAIT, "decentralized", steps, progress, push=(x["force_n"], push_step))
         at_pdff.append(dict(_push_row(r, "decentralized", x["force_n"], push_step, refs["decentralized"],
                                       np.sign(x["target_change"])), target_change=x["target_change"]))
     rec.update(force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],
@@ -281,7 +287,7 @@ def _tracking_row(r) -> dict:
 
 
 def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized"), causes=True):
-    """Exps. 1, 4-5 tracking: the nominal gait under each controller on the stance model with
+    """Exps. 1, 4-5 tracking: the nominal gait (:data:`GAIT`) under each controller on the stance model with
     14-bit encoders at 1 kHz (the rows). ``causes``: the same walks with exact encoders
     (``ideal_sensing``: no quantisation, exact rates) and on the 13-DoF plant (``full_plant``:
     cable stretch, free swing spring, compliant ground; encoders), which separate what the
@@ -289,12 +295,12 @@ def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized"
     rows = {}
     n = steps or 30
     for c in controllers:
-        r = _walk("nominal", c, n, progress, out=(f"{out}/{c}" if out else None))
+        r = _walk(GAIT, c, n, progress, out=(f"{out}/{c}" if out else None))
         rows[c] = _tracking_row(r)
         if causes:
-            rows[c]["ideal_sensing"] = _tracking_row(_walk("nominal", c, n, progress, sensing="ideal"))
-            rows[c]["full_plant"] = _tracking_row(_walk("nominal", c, n, progress, plant="full"))
-    return dict(experiment="tracking", controllers=rows,
+            rows[c]["ideal_sensing"] = _tracking_row(_walk(GAIT, c, n, progress, sensing="ideal"))
+            rows[c]["full_plant"] = _tracking_row(_walk(GAIT, c, n, progress, plant="full"))
+    return dict(experiment="tracking", gait=GAIT, controllers=rows,
                 paper=dict(torso_rms_deg=dict(pdff=1.44, iolin=0.89), mLS_st_rms_deg=dict(pdff=29.82, iolin=0.28),
                            torso_peak_deg=dict(pdff=3.1, iolin=2.4), mLS_st_peak_deg=dict(pdff=59.1, iolin=39.5)))
 
@@ -320,7 +326,7 @@ def paper_speed_sensitivity() -> float:
 
 
 def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS, pdff_column=True):
-    """Table I is a simulation of the nominal fixed point: here under the compliant-HZD
+    """Table I is a simulation of the nominal fixed point (:data:`GAIT`): here under the compliant-HZD
     controller with exact sensing (the model's own closed loop), and beside it (``pdff_column``)
     PD + feedforward with encoders (the experiment's controller). The steady speed is the mean
     over the last ``average`` steps. ``dv_deta``: the speed's sensitivity to eta (m/s per unit
@@ -332,7 +338,7 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS
     for eta in etas:
         row = dict(eta=eta, paper_speed_mps=wm.PAPER["impact_scaling"][eta])
         for key, c, sensing in columns:
-            r = _walk("nominal", c, steps, progress, eta=eta, sensing=sensing)
+            r = _walk(GAIT, c, steps, progress, eta=eta, sensing=sensing)
             sp = r["speed_per_step"]
             ok = not r["fell"] and len(sp) >= average
             row.update({f"{key}fell": r["fell"], f"{key}steps_completed": r["steps_completed"],
@@ -340,7 +346,7 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS
         rows.append(row)
     ok = [x["steady_speed_mps"] for x in rows if x["steady_speed_mps"] is not None]
     e = [x["eta"] for x in rows]
-    rec = dict(experiment="impact-scaling", controller="iolin", sensing="ideal", rows=rows,
+    rec = dict(experiment="impact-scaling", gait=GAIT, controller="iolin", sensing="ideal", rows=rows,
                speed_rises_as_eta_falls=bool(len(ok) == len(rows) and all(np.diff(ok) > 0)),
                dv_deta=speed_sensitivity(e, [x["steady_speed_mps"] for x in rows]),
                dv_deta_paper=paper_speed_sensitivity(),
@@ -478,17 +484,17 @@ def _exp4_row(r) -> dict:
 
 
 def exp4(steps, progress, out, compare=True):
-    """Exp. 4: the nominal (Exp. 1) gait under the compliant-HZD controller (I/O linearisation
+    """Exp. 4: the nominal (Exp. 1) gait :data:`GAIT` under the compliant-HZD controller (I/O linearisation
     with the hybrid-invariance corrections, ``iolin``), 14-bit encoders at 1 kHz, with the
     experiment's saturation EXP4_LIMITS; ``steps`` (default 30). A fallen run has no speed
     (``speed_mps`` None) and gives the step and time of the fall. ``without_limits``: the same
     run at the drivetrain's limits (30 / 55 N m); ``compare`` False leaves it out."""
     n = steps or 30
-    r = _exp4_row(limited_walk("nominal", "iolin", n, EXP4_LIMITS, progress=progress))
-    rec = dict(experiment="exp4", gait="nominal", controller="iolin", sensing="encoders", steps=n, **r,
+    r = _exp4_row(limited_walk(GAIT, "iolin", n, EXP4_LIMITS, progress=progress))
+    rec = dict(experiment="exp4", gait=GAIT, controller="iolin", sensing="encoders", steps=n, **r,
                paper=dict(EXP4_PAPER, torque_limits_nm=list(EXP4_LIMITS)))
     if compare:
-        rec["without_limits"] = _exp4_row(limited_walk("nominal", "iolin", n, DRIVE_LIMITS, progress=progress))
+        rec["without_limits"] = _exp4_row(limited_walk(GAIT, "iolin", n, DRIVE_LIMITS, progress=progress))
     return rec
 
 
@@ -515,7 +521,7 @@ def _contact(r):
 
 
 def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
-    """Exp. 5 as the experimenters did it: the nominal (Exp. 1) constraints, the torso leaned
+    """Exp. 5 as the experimenters did it: the nominal (Exp. 1) constraints (:data:`GAIT`), the torso leaned
     forward step by step (:func:`~bipedlab.robots.mabel.walking.constraints.lean`, FAST_LEAN_STEPS increments)
     under the decentralised zero-dynamics controller (:data:`FAST_CONTROLLER`, Sec. V-E), then
     ``steps`` (default 100) more steps, with the 14-bit encoders read through the model-based
@@ -528,7 +534,7 @@ def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
     n = steps or 100
     total = lean_steps + n
     lean = dict(lean_deg=FAST_LEAN_DEG, lean_steps=lean_steps)
-    r = _walk("nominal", FAST_CONTROLLER, total, progress, out=out, sensing=FAST_SENSING, **lean)
+    r = _walk(GAIT, FAST_CONTROLLER, total, progress, out=out, sensing=FAST_SENSING, **lean)
     r.update(_after_ramp(r, lean_steps))
     first = r["speed_per_step"][:FAST_START_STEPS]
     r["start_speed_mps"] = float(np.mean(first)) if len(first) == FAST_START_STEPS else None
@@ -541,7 +547,7 @@ def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
     comp = {}
     for key, controller, sensing in (("decentralized_filtered_difference", FAST_CONTROLLER, "encoders"),
                                      ("iolin_observer", "iolin", FAST_SENSING)):
-        d = _walk("nominal", controller, total, progress, sensing=sensing, **lean)
+        d = _walk(GAIT, controller, total, progress, sensing=sensing, **lean)
         comp[key] = dict(fell=d["fell"], steps_completed=d["steps_completed"], **_after_ramp(d, lean_steps),
                          **_contact(d))
     g = _walk("fast", FAST_CONTROLLER, 10, progress, sensing=FAST_SENSING)
