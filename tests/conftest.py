@@ -77,7 +77,8 @@ def pytest_unconfigure(config):
 
 # ----- longest modules first ----------------------------------------------------------------
 #: The test modules that take longest (seconds of setup + calls + teardown, the mean of two
-#: default-tier runs on a two-core Xeon; BIPEDLAB_TEST_COMPILE_PROFILE prints the current ones).
+#: default-tier runs on a two-core Xeon, summed per module from ``--junitxml``; the compile
+#: profile below gives their compile seconds, not these totals).
 #: The workers take modules in collection order (--dist loadfile), so a long module collected
 #: last keeps one worker busy while the other idles; these go first, the short ones fill the end.
 LONGEST_FIRST = (
@@ -170,10 +171,9 @@ def pytest_sessionfinish(session, exitstatus):
     if not _PROFILE_DIR:
         return
     import json
-
-    os.makedirs(_PROFILE_DIR, exist_ok=True)
     import time
 
+    os.makedirs(_PROFILE_DIR, exist_ok=True)
     name = os.environ.get("PYTEST_XDIST_WORKER", "main")
     _profile["(process ended)"] = {"unix_time": time.time()}
     with open(os.path.join(_PROFILE_DIR, f"compile-{name}.json"), "w") as f:
