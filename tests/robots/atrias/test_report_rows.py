@@ -33,3 +33,60 @@ def test_the_claim_needs_both_steady_errors_within_their_rows_bands():
 def test_a_fall_fails_the_claim_whatever_the_errors():
     m = _claim(_flat(0.018, 0.008, fell=True))
     assert m.value == 0.0 and m.facts["reason"] == "the run fell"
+
+
+def _batched(per_trial_means_h, per_trial_means_v, apexes, sds=None):
+    """A stand-in batched record: pooled means from the per-trial counts and means."""
+    n = len(apexes)
+    good = [a for a in apexes if a]
+    pool = lambda ms: sum(a * m for a, m in zip(apexes, ms) if a) / sum(good)  # noqa: E731
+    return dict(trials=n, fell=n - len(good), apex_height_error_mean_m=pool(per_trial_means_h),
+                speed_error_mean_mps=pool(per_trial_means_v), apex_height_sd_m=0.03, speed_sd_mps=0.2,
+                success_rate=len(good) / n,
+                per_trial=dict(apexes=list(apexes), apex_height_error_mean_m=list(per_trial_means_h),
+                               speed_error_mean_mps=list(per_trial_means_v),
+                               apex_height_sd_m=list(sds or [0.03] * n)))
+
+
+def test_model_error_rows_carry_the_error_free_runs_errors_on_the_same_draws():
+    """Oracle: hand-pooled means. The error-free run (rough-conservation) holds 4 draws; a model
+    error's run the first 2 of them: its reference is the first two draws' apexes pooled
+    (10 and 30 apexes: (10 * 0.02 + 30 * 0.06) / 40 = 0.05 m), not all four draws'; a fallen
+    draw (None) is left out."""
+    free = _batched([0.02, 0.06, -0.5, 0.3], [-0.1, -0.02, 0.9, 0.0], [10, 30, 20, None])
+    err = _batched([0.15, 0.17], [-0.3, -0.2], [12, 28])
+    m = R.measure({"rough-conservation": free, "mass+20pct": err}, quick=False)
+    h, v = m["mass+20pct_apex_error_m"], m["mass+20pct_speed_error_mps"]
+    assert h.facts["reference"] == (10 * 0.02 + 30 * 0.06) / 40
+    assert v.facts["reference"] == (10 * -0.1 + 30 * -0.02) / 40
+    assert h.facts["shift"] == h.value - h.facts["reference"]
+    assert h.value == (12 * 0.15 + 28 * 0.17) / 40
+    # without the error-free run there is no reference: the row is not measured
+    assert not isinstance(R.measure({"mass+20pct": err}, quick=False)["mass+20pct_apex_error_m"], Measured)
+
+
+def test_the_model_error_runs_draw_the_first_terrains_of_the_error_free_run():
+    """The reference above is exact only if a model error's draws are the error-free run's first
+    ones: same seed, terrain and distance, fewer trials."""
+    import numpy as np
+
+    from bipedlab.robots.atrias import study
+
+    def heights(experiment):
+        e = next(x for x in R.EXPERIMENTS if x.name == experiment)
+        st = R._settings(e.full_args)
+        return np.asarray(study.make_terrains(st, st.trials, 72.0).heights)
+
+    free, err = heights("rough-conservation"), heights("stiffness-20pct")
+    assert err.shape[0] == R.ERR_TRIALS < free.shape[0]
+    np.testing.assert_array_equal(err, free[:R.ERR_TRIALS])
+
+
+def test_rough_spread_rows_carry_the_single_draws_spreads():
+    rec = _batched([0.0, 0.0, 0.0], [0.0, 0.0, 0.0], [20, 20, None], sds=[0.02, 0.05, None])
+    rec["slip_model"] = dict(apex_height_sd_m=0.04, speed_sd_mps=0.15,
+                             per_trial=dict(apex_height_sd_m=[0.01, 0.03, 0.06]))
+    m = R.measure({"rough": rec}, quick=False)
+    assert (m["rough_apex_sd_m"].facts["draw_min"], m["rough_apex_sd_m"].facts["draw_max"]) == (0.02, 0.05)
+    s = m["rough_slip_apex_sd_m"]
+    assert s.value == 0.04 and (s.facts["draw_min"], s.facts["draw_median"], s.facts["draw_max"]) == (0.01, 0.03, 0.06)

@@ -39,7 +39,7 @@ def test_steady_errors_are_the_mean_of_the_last_ten_apexes():
 @pytest.mark.slow
 def test_flat_run_reports_the_steady_state_beside_the_whole_run_mean(capsys):
     """10 s on flat ground (energy regulation, the CLI default) under bipedlab's controller, the
-    labelled variant whose energy integral, landing-angle trim and lift-off debounce remove the
+    labelled variant whose energy integral and landing-angle trim remove the
     paper's controller's steady bias (+3.2 cm, -7.0 cm/s here; its measured cause, the landing
     foot's slide, is in the running rows). The paper's steady errors are 1.8 cm and 0.8 cm/s
     (Sec. IV-A); tolerance +-2 cm and +-5 cm/s, the size of the spring-mass model's own
@@ -128,21 +128,18 @@ def _rough(n=8, distance=30.0, **kw):
 def test_ten_ms_delay_runs_lower_and_faster_as_in_the_paper():
     """Sec. IV-C: with a 10 ms delay (energy conservation, rough terrain) the robot "runs
     significantly lower and faster (average errors of -7.2cm and +71.9cm/s)", the controller
-    not knowing the delay. Speed: faster, at least half the paper's +71.9 cm/s (the paper
-    attributes it to the late forces; its size depends on the energy the late spring injects
-    per stance). Measured on 8 terrains of 30 m, seed 0: +2.13 m/s, apex -6.0 cm, 7 of 8
-    terrains, three times the paper's speed: with the stance spring about the stance's fixed
-    foot point the work the sinking foot gives the ground is replaced, and it no longer hides
-    the energy the late spring injects (about 57 J a stance at zero energy error on flat
-    ground); with the spring measured from the sinking foot it was +95 cm/s, -6.8 cm, 8 of 8,
-    within a factor of two of the paper's. The size under the delay is left to the delay's
-    own study. Apex: lower, as the paper's, between -8 and -1 cm (the paper's -7.2 cm inside).
-    Survival (the paper: "tolerates"): at least 6 of
-    8 asserted."""
+    not knowing the delay. The late spring force injects energy in every stance, which eq. 7's
+    unlimited stiffness modulation takes out again. Measured on 8 terrains of 30 m, seed 0:
+    8 of 8 run through, apex -3.8 cm, speed +75.0 cm/s (with the modulation limited to 150 J and
+    50 % of k0, as bipedlab's controller once did, +2.13 m/s and 7 of 8: the speed ran away).
+    Asserted: survival of at least 7 of 8 (the paper: "tolerates"), the speed error within a
+    factor of two of the paper's +71.9 cm/s, the apex lower, between -8 and -1 cm (the paper's
+    -7.2 cm inside; its size moves with the modulation's gain, which the paper does not give:
+    the running rows' energy_gain_sweep)."""
     rec = _rough(delay_ms=10.0)
     assert rec["delay_compensation"] is False
-    assert rec["success_rate"] >= 0.75
-    assert rec["speed_error_mean_mps"] >= 0.719 / 2
+    assert rec["success_rate"] >= 7 / 8
+    assert 0.719 / 2 <= rec["speed_error_mean_mps"] <= 0.719 * 2
     assert -0.08 < rec["apex_height_error_mean_m"] < -0.01
 
 

@@ -20,7 +20,6 @@ CONTROLLERS = ("paper", "bipedlab")
 ADDITIONS = {
     "energy integral": "the lift-off energy error adds 0.3 times the sum of past errors (integral action)",
     "landing-angle trim": "each lift-off trims the landing angle by 0.25 rad/m of apex-height error (at most 0.03 rad)",
-    "lift-off debounce": "lift-off counts only after 2 cm of leg compression or 40 ms of stance",
 }
 #: the paper's standard deviations of the bounce height (m) and apex speed (m/s) on the rough
 #: terrain with steps up to 25 cm (Sec. IV-B, IV-C; one run each), by case: the robot under

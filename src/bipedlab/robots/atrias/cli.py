@@ -57,7 +57,7 @@ def _run_arguments(p) -> None:
                    help="pitch the trunk DEG away from its 10 deg reference at the start (Sec. IV-A's 10 deg "
                         "perturbation); a single run reports the steps until it settles (trunk_settle_steps)")
     p.add_argument("--controller", choices=catalog.CONTROLLERS, default="paper",
-                   help="the paper's controller as published (default), or bipedlab's with three additions: "
+                   help="the paper's controller as published (default), or bipedlab's with two additions: "
                         + "; ".join(f"{k} ({v})" for k, v in catalog.ADDITIONS.items()))
     p.add_argument("--trials", type=int_in(1, 100_000), default=None, metavar="N",
                    help="run N random terrains (and noise / model-error draws) batched in one compiled call")

@@ -62,6 +62,10 @@ class Settings:
     theta0_offset_deg: float = 0.0  # initial trunk perturbation (flat-ground test of IV-A)
     rough_grade_percent: float = 0.0  # rough terrain with a persistent slope (IV-B), --slope with rough
     controller: str = "paper"         # the paper's controller as published, or "bipedlab" (catalog.ADDITIONS)
+    # two values of the controller the paper does not give (None: the controller's own):
+    energy_gain: float | None = None  # share of the lift-off energy error a nominal stance removes (eq. 7's c)
+    reference_weights: tuple | None = None  # (w_theta, w_phi) of the flight's compensated reference
+    per_trial: bool = False  # a batched run's record lists each trial's statistics (``per_trial``)
 
 
 def parse_model_errors(items) -> tuple:
@@ -87,6 +91,10 @@ def build(st: Settings):
     if st.controller not in catalog.CONTROLLERS:
         raise ValueError(f"controller must be one of {', '.join(catalog.CONTROLLERS)}, got {st.controller!r}")
     rp, cp, gait, samples = _build(tuple(st.model_error), st.energy)
+    if st.energy_gain is not None:  # c is proportional to the gain
+        cp = cp.replace(c_energy=cp.c_energy * float(st.energy_gain) / rc.ENERGY_GAIN)
+    if st.reference_weights is not None:
+        cp = cp.replace(w_theta=float(st.reference_weights[0]), w_phi=float(st.reference_weights[1]))
     return rp, (rc.paper_controller(cp) if st.controller == "paper" else cp), gait, samples
 
 
@@ -230,6 +238,21 @@ def _stats(bounce, speed, gait):
                 speed_error_mean_mps=float(np.mean(speed) - gait.speed), speed_sd_mps=float(np.std(speed)))
 
 
+def per_trial(arrays, ok, gait) -> dict:
+    """Each trial's own statistics (lists over the trials, None for a trial that fell): its
+    apexes past the start transient, mean bounce-height and speed errors and bounce-height s.d.
+    (one terrain draw's, as the paper's single run; pooled means over any subset of the trials
+    follow from the counts and the means). ``arrays``: per trial (bounce heights, speeds)."""
+    out = dict(apexes=[], apex_height_error_mean_m=[], speed_error_mean_mps=[], apex_height_sd_m=[])
+    for (b, v), good in zip(arrays, ok):
+        good = bool(good) and b.size > 0
+        out["apexes"].append(int(b.size) if good else None)
+        out["apex_height_error_mean_m"].append(float(np.mean(b) - gait.y_apex) if good else None)
+        out["speed_error_mean_mps"].append(float(np.mean(v) - gait.speed) if good else None)
+        out["apex_height_sd_m"].append(float(np.std(b)) if good else None)
+    return out
+
+
 def level_stats(heights, terr, distance: float) -> dict:
     """Statistics of the step levels under the run (m): the levels from the start to
     ``distance``, pooled over the trials: their s.d., the mean of each trial's own s.d. (that of
@@ -275,6 +298,9 @@ def slip_model(st: Settings, terr, n: int, gait, policy: str = "polynomial"):
     b = np.concatenate([r.bounce[i, SKIP_APEX:r.steps_done[i]] for i in range(n) if not fell[i]] or [np.zeros(0)])
     s = np.concatenate([r.speed[i, SKIP_APEX:r.steps_done[i]] for i in range(n) if not fell[i]] or [np.zeros(0)])
     rec = dict(success_rate=float(1 - np.mean(fell)), **_stats(b, s, gait))
+    if st.per_trial and st.trials is not None:
+        rec["per_trial"] = per_trial([(r.bounce[i, SKIP_APEX:r.steps_done[i]], r.speed[i, SKIP_APEX:r.steps_done[i]])
+                                      for i in range(n)], ~np.asarray(fell), gait)
     return rec, r
 
 
@@ -339,6 +365,8 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
         rec["status"] = ar.STATUS_NAMES[int(out["status"][0])]
     else:
         rec.update(success_rate=float(np.mean(ok)), trials=n)
+        if st.per_trial:
+            rec["per_trial"] = per_trial([_apex_arrays(out, i) for i in range(n)], ok, gait)
     if perturbed:
         lg = out["log"]
         rec["theta0_offset_deg"] = st.theta0_offset_deg
