@@ -3,6 +3,8 @@ not fall but settles outside the steady-error bands the paper reports for the st
 fails the claim; from stand-in records of experiment flat."""
 from __future__ import annotations
 
+import pytest
+
 from bipedlab.report import Measured, values
 from bipedlab.robots.atrias import reproduce as R
 
@@ -61,6 +63,15 @@ def test_model_error_rows_carry_the_error_free_runs_errors_on_the_same_draws():
     assert v.facts["reference"] == (10 * -0.1 + 30 * -0.02) / 40
     assert h.facts["shift"] == h.value - h.facts["reference"]
     assert h.value == (12 * 0.15 + 28 * 0.17) / 40
+    # the apex energy the two shifts mean, beside the paper's pair (+14 cm, -17 cm/s), to first
+    # order about the 5 m/s gait with the robot's whole mass
+    from bipedlab.robots.atrias import robot as at
+
+    rp = at.AtriasParams()
+    M = rp.m + 2 * rp.m_f
+    assert h.facts["energy_shift_j"] == pytest.approx(M * (rp.g * h.facts["shift"] + 5.0 * v.facts["shift"]))
+    assert v.facts["energy_shift_j"] == h.facts["energy_shift_j"]
+    assert h.facts["paper_energy_j"] == pytest.approx(M * (rp.g * 0.14 - 5.0 * 0.17))
     # without the error-free run there is no reference: the row is not measured
     assert not isinstance(R.measure({"mass+20pct": err}, quick=False)["mass+20pct_apex_error_m"], Measured)
 

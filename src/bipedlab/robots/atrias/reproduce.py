@@ -140,6 +140,15 @@ def _err(name, rel):
     return _rough(energy="conservation", trials=ERR_TRIALS, model_error={name: rel})
 
 
+#: the model errors of Sec. IV-C, each an experiment named by :func:`_err_name`
+ERRORS = (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
+          ("inertia", 0.5), ("inertia", -0.5), ("friction", 0.5), ("friction", -0.5))
+
+
+def _err_name(name, rel) -> str:
+    return f"{name}{rel:+.0%}".replace("%", "pct")
+
+
 # --quick: every batched experiment runs the same number of terrains of the same length, so all of
 # them (energy options, slope, noise, delay, model errors) run on one compiled program
 EXPERIMENTS = (
@@ -161,12 +170,11 @@ EXPERIMENTS = (
     Experiment("delay", f"bipedlab run atrias --terrain rough --energy conservation --delay-ms 10 --trials {TRIALS}",
                _run, DELAY, _quick(DELAY), reduction=_R + _SD, expected_s=40, quick_expected_s=4),
 ) + tuple(
-    Experiment(f"{name}{rel:+.0%}".replace("%", "pct"),
+    Experiment(_err_name(name, rel),
                f"bipedlab run atrias --terrain rough --energy conservation --model-error {name}={rel:g} "
                f"--trials {ERR_TRIALS}", _run, _err(name, rel), _quick(_err(name, rel)),
                reduction=_R_ERR + _SD, expected_s=30, quick_expected_s=4)
-    for name, rel in (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
-                      ("inertia", 0.5), ("inertia", -0.5), ("friction", 0.5), ("friction", -0.5)))
+    for name, rel in ERRORS)
 
 #: bipedlab's controller beside the paper's: flat ground and the two model errors whose
 #: foot-placement errors its additions change most (experiment name -> the paper-controller one)
@@ -233,7 +241,7 @@ def measure(records: dict, quick: bool) -> dict:
     for e in EXPERIMENTS:
         if e.name.startswith(("mass", "stiffness", "inertia", "friction")):
             out.update(_stats(records.get(e.name), e.name, missing))
-    out.update(_model_error_shifts(records, missing))
+    out.update(_model_error_shifts(records, missing, rows))
     out.update(_variants(records, missing))
     return {k: v for k, v in out.items() if k in rows}
 
@@ -257,24 +265,37 @@ def _pooled(rec, n: int, key: str):
     return sum(a * m for a, m in pairs) / sum(a for a, _ in pairs) if pairs else None
 
 
-def _model_error_shifts(records: dict, missing: Skip) -> dict:
+def _model_error_shifts(records: dict, missing: Skip, rows: dict) -> dict:
     """The mass and stiffness errors' mean bounce-height and speed errors with the error-free
     run's on the same terrain draws beside them (``reference``: experiment rough-conservation's
-    first ``ERR_TRIALS`` draws, the same seed and terrain settings, hence the same draws) and the
-    model error's own share (``shift``, the row's value minus the reference)."""
+    first ``ERR_TRIALS`` draws, the same seed and terrain settings, hence the same draws), the
+    model error's own share (``shift``, the row's value minus the reference) and what the two
+    shifts together do to the apex energy, M (g dh + v* dv) to first order with M the robot's
+    mass (``energy_shift_j``), beside what the paper's pair of errors means
+    (``paper_energy_j``; ``rows``: the paper's rows by id)."""
+    from bipedlab.robots.atrias import robot as at
+
+    rp = at.AtriasParams()
+    mass, speed = rp.m + 2 * rp.m_f, 5.0
+    energy = lambda dh, dv: mass * (rp.g * dh + speed * dv)  # noqa: E731
     free = records.get("rough-conservation")
     out = {}
-    for e in EXPERIMENTS:
-        if not e.name.startswith(("mass", "stiffness")):
+    keys = (("apex_error_m", "apex_height_error_mean_m"), ("speed_error_mps", "speed_error_mean_mps"))
+    for name in (_err_name(n, rel) for n, rel in ERRORS if n in ("mass", "stiffness")):
+        rec = records.get(name)
+        if rec is None or free is None:
+            out.update({f"{name}_{q}": missing for q, _ in keys})
             continue
-        rec = records.get(e.name)
-        for q, key in (("apex_error_m", "apex_height_error_mean_m"), ("speed_error_mps", "speed_error_mean_mps")):
-            v = dig(rec, key) if rec is not None else None
-            if rec is None or free is None:
-                out[f"{e.name}_{q}"] = missing
-                continue
-            ref = _pooled(free, int(rec["trials"]), key)
-            out[f"{e.name}_{q}"] = v if v is None or ref is None else Measured(v, dict(reference=ref, shift=v - ref))
+        vals = [dig(rec, key) for _, key in keys]
+        refs = [_pooled(free, int(rec["trials"]), key) for _, key in keys]
+        if any(x is None for x in vals + refs):
+            out.update({f"{name}_{q}": v for (q, _), v in zip(keys, vals)})
+            continue
+        shifts = [v - r for v, r in zip(vals, refs)]
+        facts = dict(energy_shift_j=energy(*shifts),
+                     paper_energy_j=energy(*(rows[f"{name}_{q}"]["paper"] for q, _ in keys)))
+        out.update({f"{name}_{q}": Measured(v, dict(reference=r, shift=d, **facts))
+                    for (q, _), v, r, d in zip(keys, vals, refs, shifts)})
     return out
 
 
