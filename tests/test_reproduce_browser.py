@@ -105,6 +105,17 @@ def test_report_opens_in_headless_chromium(report):
             assert section.find_element(By.TAG_NAME, "h2").text
         frames = driver.find_elements(By.CSS_SELECTOR, "iframe.animation")
         assert len(frames) == 1
+        # every file the experiments wrote is linked from its experiment's row, and exists
+        from pathlib import Path
+        from urllib.parse import unquote, urlparse
+
+        from bipedlab.report import check
+
+        assert check.unlinked(folder) == []
+        links = driver.find_elements(By.CSS_SELECTOR, "table.experiments details a")
+        assert len(links) >= 3
+        for a in links:
+            assert Path(unquote(urlparse(a.get_attribute("href")).path)).is_file(), a.get_attribute("href")
         height = driver.execute_script("return document.documentElement.scrollHeight")
         driver.set_window_size(1280, min(int(height) + 100, 16000))
         shot = folder / "screenshot.png"

@@ -128,6 +128,23 @@ def test_the_published_report_is_the_codes():
         sorted({f"{s['paper']}/{s['experiment']}" for s in stale}))
 
 
+def test_the_published_page_links_every_file_it_was_built_with():
+    """Every figure, animation and data file under docs/report is reachable from its page (an
+    image, an animation or a link in its experiment's file list)."""
+    assert check.unlinked(check.default_folder()) == []
+
+
+def test_unlinked_names_a_file_the_page_does_not_reach(tmp_path):
+    (tmp_path / "a").mkdir()
+    (tmp_path / "a" / "fig 1.png").write_bytes(b"x")
+    (tmp_path / "a" / "data.json").write_text("{}")
+    (tmp_path / "report.json").write_text("{}")
+    (tmp_path / "index.html").write_text('<img src="a/fig 1.png"><a href="a/x.html#top">x</a>')
+    assert check.unlinked(tmp_path) == ["a/data.json"]
+    (tmp_path / "index.html").write_text('<img src="a/fig 1.png"><a href="a/data.json">data</a>')
+    assert check.unlinked(tmp_path) == []
+
+
 def test_the_currency_check_reads_the_jax_the_report_records(monkeypatch):
     """Another JAX installed here does not make a page computed from the same source stale: the
     keys are computed for the JAX version the report records."""

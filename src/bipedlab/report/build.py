@@ -180,7 +180,8 @@ def build(papers: list, results: dict, quick: bool, out_dir, wall_s: float, cpu_
         report["papers"][p.key] = dict(
             title=data["title"], citation=data["citation"], rows=rows,
             counts=counts(rows),
-            experiments=[dict(r.summary(), gaits=_gaits_of(p, r.name), record=r.record) for r in res],
+            experiments=[dict(r.summary(), gaits=_gaits_of(p, r.name), files=sorted(copied[r.name].values()),
+                              record=r.record) for r in res],
             gaits=gait_table(p, records, quick),
             figures=[f for f in figs if f["kind"] == "figure"],
             animations=[f for f in figs if f["kind"] == "animation"],

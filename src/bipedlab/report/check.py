@@ -14,8 +14,10 @@ differs, is missing or is new, and exits with status 1 when any does.
 """
 from __future__ import annotations
 
+import html
 import json
 import math
+import re
 from pathlib import Path
 from typing import Optional
 
@@ -161,3 +163,18 @@ def stale(folder=None) -> list[dict]:
             for gone in sorted(set(stored) - {e.name for e in paper.experiments}):
                 out.append(dict(report=name, paper=key, experiment=gone, published=stored[gone], current=None))
     return out
+
+
+def unlinked(folder) -> list:
+    """The files of a published report's folder that its page does not link (``href`` or
+    ``src`` of ``index.html``), as paths relative to the folder; the page, ``report.json``,
+    ``quick.json`` and the run's progress file themselves apart. An empty list: the page reaches
+    every file it was built with."""
+    from bipedlab.report import resume
+
+    folder = Path(folder)
+    page = (folder / "index.html").read_text(encoding="utf-8")
+    linked = {html.unescape(m) for m in re.findall(r'(?:href|src)="([^"#]+)"', page)}
+    own = {"index.html", "report.json", QUICK_FILE, resume.FILE}
+    files = sorted(p.relative_to(folder).as_posix() for p in folder.rglob("*") if p.is_file())
+    return [f for f in files if f not in own and f not in linked]

@@ -28,6 +28,7 @@ figure img{max-width:100%;border:1px solid #e0e0e0}figcaption{font-size:.85em;co
 iframe.animation{width:700px;max-width:100%;height:730px;border:1px solid #ccc;background:#fff}
 dl.meta{display:grid;grid-template-columns:max-content auto;gap:.1em 1em;font-size:.9em}dl.meta dt{font-weight:600}
 .counts{font-weight:600}.note{font-size:.88em;color:#444}
+table.experiments details ul{margin:.2em 0;padding-left:1.1em;font-size:.9em}
 nav a{margin-right:1em}
 """
 
@@ -136,7 +137,7 @@ def _gaits(gaits: list) -> str:
 
 def _experiments(exps: list) -> str:
     out = ['<table class="experiments"><thead><tr><th>experiment</th><th>command</th><th>gaits</th><th>--quick reduction</th>'
-           '<th>compile (s)</th><th>run (s)</th><th>wall (s)</th><th>note</th></tr></thead><tbody>']
+           '<th>compile (s)</th><th>run (s)</th><th>wall (s)</th><th>note</th><th>files</th></tr></thead><tbody>']
     for e in exps:
         if e["skipped"]:
             note = e["skipped"]
@@ -148,9 +149,19 @@ def _experiments(exps: list) -> str:
         gaits = ", ".join(e.get("gaits") or []) or "—"
         out.append(f'<tr><td>{escape(e["name"])}</td><td><code>{escape(e["command"])}</code></td><td>{escape(gaits)}</td>'
                    f'<td>{escape(e["reduction"] or "")}</td><td class="num">{c}</td><td class="num">{r}</td>'
-                   f'<td class="num">{w}</td><td class="note">{escape(note)}</td></tr>')
+                   f'<td class="num">{w}</td><td class="note">{escape(note)}</td><td>{_files(e)}</td></tr>')
     out.append("</tbody></table>")
     return "\n".join(out)
+
+
+def _files(e) -> str:
+    """Every file the experiment wrote (figures, animations, data), each a link named by its path
+    inside the experiment's folder, folded away; "—" where it wrote none."""
+    files = e.get("files") or []
+    if not files:
+        return "—"
+    links = "".join(f'<li><a href="{escape(f)}">{escape(f.split("/", 2)[-1])}</a></li>' for f in files)
+    return f'<details><summary>{len(files)} file{"s" if len(files) > 1 else ""}</summary><ul>{links}</ul></details>'
 
 
 def _media(items: list, render) -> str:
