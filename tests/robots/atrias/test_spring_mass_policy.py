@@ -45,3 +45,36 @@ def test_the_flat_spring_mass_model_runs_the_controllers_polynomial_and_its_fit_
     for rec in (poly, exact):
         assert abs(rec["apex_height_error_mean_m"]) < 1e-5 and abs(rec["speed_error_mean_mps"]) < 1e-4
     assert poly["apex_height_error_mean_m"] - exact["apex_height_error_mean_m"] == pytest.approx(dy, rel=0.05)
+
+
+def test_the_spring_mass_foot_lands_only_after_the_flights_apex():
+    """Eq. (1) gives landing angles for landings after the apex. From a lift-off state (COM
+    0.96 m up, rising at 0.9 m/s: apex after 0.092 s) with a step up starting 0.2 m ahead, the
+    foot at the policy's first angle (held before the apex) starts inside the step (0.046 m
+    high at 20 ms). A 0.05 m step: the foot rises out of it before the apex and lands on its
+    top after the apex (not at 20 ms, 4 mm inside). A 0.2 m step, which the foot never clears:
+    the landing is right after the apex (the stance then starts from the foot's own point)."""
+    import jax
+    import jax.numpy as jnp
+
+    jax.config.update("jax_enable_x64", True)
+    from bipedlab.contact import terrain as tr
+    from bipedlab.robots.atrias import slip_run
+
+    gait = slip.Gait(1.05, 5.0)
+    p = slip.SlipParams(m=60.0)
+    _, pol, _ = study._policy(p.m, p.k0, gait)
+    s = jnp.array([0.0, 0.96, 5.0, 0.9])
+    t_apex = 0.9 / p.g
+
+    def landing(step):
+        terr = tr.Terrain(jnp.array([0.0, 0.0, step, step, step]), 3.0, -2.8, 0.0)  # the step at x = 0.2 m
+        t, found = slip_run._touchdown_time(p, pol, terr, s)
+        t = float(t)
+        a = float(slip.policy_angle(pol, t - t_apex))
+        return bool(found), t, 5.0 * t + p.l0 * np.cos(a), 0.96 + 0.9 * t - 0.5 * p.g * t * t - p.l0 * np.sin(a)
+
+    found, t, fx, fy = landing(0.05)
+    assert found and t > t_apex and fx > 0.2 and fy == pytest.approx(0.05, abs=1e-6)
+    found, t, fx, fy = landing(0.2)
+    assert found and t_apex < t < t_apex + 0.003 and fy < 0.2

@@ -2,9 +2,16 @@
 (the comparison of the running paper's Fig. 8).
 
 Each step: from lift-off, the ballistic flight with the leg at a*(t) (t = time since the
-flight's apex) until the foot meets the ground (the core's
+flight's apex) until the foot meets the ground after the flight's apex (the core's
 :func:`bipedlab.sim.hybrid.first_event_time`: a 2 ms grid, refined by bisection),
-then stance on the stationary foot (:func:`bipedlab.control.slip.stance`). Records, per step,
+then stance on the stationary foot (:func:`bipedlab.control.slip.stance`). Eq. (1) gives
+landing angles for landings after the apex, the policy's whole domain; before it a*(t) is
+held at its first angle, and a step up just ahead of a lift-off can hold that foot inside the
+terrain from the start. Taking that as a touchdown (any foot at or below the ground once the
+first 20 ms had passed, as this model did) landed 17 % of the steps on 32 rough terrains
+(steps up to 25 cm) a few centimetres past the last stance, strides under 1 m, and spread
+the bounce heights 3.8 cm (the paper's model: 1.8 cm); after the apex only, no stride is
+under 1 m and they spread 2.6 cm, the apex speeds 15 cm/s as before. Records, per step,
 the bounce height (apex above the ground of the stance before it, the quantity the policy
 targets) and the forward speed at apex. Vmappable over terrains. The policy is the fitted
 polynomial (:class:`~bipedlab.control.slip.SwingPolicy`, the one the robot's controller runs) or
@@ -35,14 +42,15 @@ class SlipRun:
 
 
 def _touchdown_time(p, pol, terr, s, t_max=2.0, n=1000):
-    """First time after state s = (x, y, vx, vy) at which the foot at a*(t) reaches ground."""
+    """First time after the flight's apex, from state s = (x, y, vx, vy), at which the foot at
+    a*(t) is at or below the ground."""
     t_apex = s[3] / p.g
 
     def gap(t):
         a = slip.policy_angle(pol, t - t_apex)
         fx = s[0] + s[2] * t + p.l0 * jnp.cos(a)
         fy = s[1] + s[3] * t - 0.5 * p.g * t * t - p.l0 * jnp.sin(a)
-        return fy - tr.ground(terr, fx)
+        return jnp.where(t > t_apex, fy - tr.ground(terr, fx), 1.0)  # no landing before the apex
 
     # ignore the very start (the foot is at the ground at lift-off)
     return hybrid.first_event_time(gap, t_max, n, t_min=0.02, iterations=40)
