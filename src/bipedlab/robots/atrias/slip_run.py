@@ -8,10 +8,10 @@ then stance on the stationary foot (:func:`bipedlab.control.slip.stance`). Eq. (
 landing angles for landings after the apex, the policy's whole domain; before it a*(t) is
 held at its first angle, and a step up just ahead of a lift-off can hold that foot inside the
 terrain from the start. Taking that as a touchdown (any foot at or below the ground once the
-first 20 ms had passed, as this model did) landed 17 % of the steps on 32 rough terrains
-(steps up to 25 cm) a few centimetres past the last stance, strides under 1 m, and spread
-the bounce heights 3.8 cm (the paper's model: 1.8 cm); after the apex only, no stride is
-under 1 m and they spread 2.6 cm, the apex speeds 15 cm/s as before. Records, per step,
+first 20 ms had passed, as this model did) landed 16 % of the steps on 32 rough terrains
+of 60 m (steps up to 25 cm) a few centimetres past the last stance, strides under 1 m, and
+spread the bounce heights 3.6 cm (the paper's model: 1.8 cm); after the apex only, no stride
+is under 1 m and they spread 2.5 cm, the apex speeds 15 cm/s as before. Records, per step,
 the bounce height (apex above the ground of the stance before it, the quantity the policy
 targets) and the forward speed at apex. Vmappable over terrains. The policy is the fitted
 polynomial (:class:`~bipedlab.control.slip.SwingPolicy`, the one the robot's controller runs) or
