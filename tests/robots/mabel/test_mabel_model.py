@@ -328,9 +328,12 @@ def _expected_power(m, x, u):
 
 @jax.jit
 def _power_balance(m, xs, us):
+    """(dE/dt along flow, the expected power, flow) at each state: one program per model, which
+    the tests of step and of the rigid model reuse for their flows (16 states each)."""
     def one(x, u):
-        dEdt = jax.jvp(lambda x: dy.energy(m, x), (x,), (dy.flow(m, x, u),))[1]
-        return dEdt, _expected_power(m, x, u)
+        f = dy.flow(m, x, u)
+        dEdt = jax.jvp(lambda x: dy.energy(m, x), (x,), (f,))[1]
+        return dEdt, _expected_power(m, x, u), f
 
     return jax.vmap(one)(xs, us)
 
@@ -370,7 +373,7 @@ def test_power_balance(models, variant):
     for contact in (False, True):
         xs = _random_states(m, rng, N, contact)
         us = jnp.asarray(rng.uniform(-10, 10, (N, 4)))
-        dEdt, P = (np.asarray(a) for a in _power_balance(m, xs, us))
+        dEdt, P, _ = (np.asarray(a) for a in _power_balance(m, xs, us))
         scale = np.abs(P) + 1.0
         assert np.all(np.abs(dEdt - P) < 1e-8 * scale), np.max(np.abs(dEdt - P) / scale)
         if contact:
@@ -382,22 +385,22 @@ def test_power_balance(models, variant):
     us = jnp.asarray(rng.choice([-1.0, 1.0], (N, 4)) * 200.0)
     lim = np.asarray(m.drive.torque_limit)
     np.testing.assert_allclose(lim, [30.0, 55.0, 30.0, 55.0])
-    dEdt, _ = _power_balance(m, xs, us)
-    _, P_sat = _power_balance(m, xs, jnp.clip(us, -lim, lim))
+    dEdt, _, _ = _power_balance(m, xs, us)
+    _, P_sat, _ = _power_balance(m, xs, jnp.clip(us, -lim, lim))
     np.testing.assert_allclose(np.asarray(dEdt), np.asarray(P_sat), rtol=1e-8, atol=1e-8)
     m0 = m.replace(drive=m.drive.replace(bias=jnp.zeros(4)))
     xs = _random_states(m0, rng, N, False)
-    dEdt, P = (np.asarray(a) for a in _power_balance(m0, xs, jnp.zeros((N, 4))))
+    dEdt, P, _ = (np.asarray(a) for a in _power_balance(m0, xs, jnp.zeros((N, 4))))
     assert np.all(dEdt <= 1e-10 * (np.abs(P) + 1.0)) and np.all(P < 0.0)
 
 
 @jax.jit
-def _step_energy(m, x, h, nsub):
-    u = jnp.zeros(4)
-
+def _step_energy(m, x, u, h, nsub):
+    """200 records of (energy, bsp_R, state) every nsub steps of length h from x under u: one
+    program for both tests of step (h a Python float, so that every h shares it)."""
     def rec(x, _):
         x = jax.lax.fori_loop(0, nsub, lambda i, x: dy.step(m, x, u, h), x)
-        return x, (dy.energy(m, x), x[H13["bsp_R"]])
+        return x, (dy.energy(m, x), x[H13["bsp_R"]], x)
 
     return jax.lax.scan(rec, x, None, length=200)[1]
 
@@ -413,17 +416,11 @@ def test_step_dissipates_and_is_stable_at_the_hard_stop(models):
     x0 = _airborne_state(m)
     E0 = float(dy.energy(m, x0))
     for h, nsub in ((1e-4, 10), (1e-3, 1)):
-        en, bsp_r = (np.asarray(a) for a in _step_energy(m, x0, h, nsub))
+        en, bsp_r, _ = (np.asarray(a) for a in _step_energy(m, x0, jnp.zeros(4), h, nsub))
         assert np.all(np.isfinite(en))
         assert np.all(np.diff(en) <= 1e-9 * E0)
         assert en[0] <= E0 and en[-1] < E0 - 0.1
         assert np.all(bsp_r < 0.0) and np.all(bsp_r > -0.03)
-
-
-@jax.jit
-def _step_vs_flow(m, x, u, hs):
-    steps = jax.vmap(lambda h: (dy.step(m, x, u, h) - x) / h)(hs)
-    return steps, dy.flow(m, x, u)
 
 
 def test_step_is_consistent_with_flow(models):
@@ -434,14 +431,17 @@ def test_step_is_consistent_with_flow(models):
     in (the sqrt damper), random motor torques, default drivetrain."""
     full = models[0]
     rng = np.random.default_rng(17)
-    xs = np.array(_random_states(full, rng, 16, True))[:3]
+    xs = np.array(_random_states(full, rng, 16, True))
     xs[:, H13["bsp_R"]] = -0.01
     xs[:, 13 + H13["bsp_R"]] = -0.4
+    us = rng.uniform(-10, 10, (16, 4))  # rows 0-2: the torques of the three states checked
+    flows = np.asarray(_power_balance(full, jnp.asarray(xs), jnp.asarray(us))[2])
     n = full.n
-    for x in xs:
-        u = jnp.asarray(rng.uniform(-10, 10, 4))
+    for x, u, f in zip(xs[:3], us[:3], flows[:3]):
         hs = np.array([1e-7, 5e-8])
-        steps, f = (np.asarray(a) for a in _step_vs_flow(full, jnp.asarray(x), u, jnp.asarray(hs)))
+        # one step of each h: the first record of _step_energy (one step per record)
+        steps = np.stack([(np.asarray(_step_energy(full, jnp.asarray(x), jnp.asarray(u), float(h), 1)[2][0]) - x) / h
+                          for h in hs])
         # semi-implicit: q_{k+1} = q_k + h qd_{k+1}
         np.testing.assert_allclose(steps[:, :n], x[n:2 * n] + hs[:, None] * steps[:, n:2 * n], rtol=1e-6, atol=1e-6)
         gap = [np.linalg.norm(s[n:] - f[n:]) / np.linalg.norm(f[n:]) for s in steps]  # qdd and z'
@@ -451,16 +451,22 @@ def test_step_is_consistent_with_flow(models):
 
 
 @jax.jit
-def _both_flows(full, rigid, xe, u):
+def _on_manifold(rigid, xes):
+    """The 13-DoF states (q_h = E q_e, qd_h = E qd_e, same bristles) of 9-DoF states."""
     E = jnp.asarray(np.asarray(rigid.E))
     n = rigid.n
-    xh = jnp.concatenate([E @ xe[:n], E @ xe[n:2 * n], xe[2 * n:]])
-    fe = dy.flow(rigid, xe, u)
-    fh = dy.flow(full, xh, u)
+    return jax.vmap(lambda xe: jnp.concatenate([E @ xe[:n], E @ xe[n:2 * n], xe[2 * n:]]))(xes)
+
+
+@jax.jit
+def _dalembert(full, rigid, xh, u, fe, fh):
+    """E^T M_h (E qdd_e - qdd_h), its scale E^T M_h E qdd_e, and the 13-DoF drivetrain forces."""
+    E = jnp.asarray(np.asarray(rigid.E))
+    n = rigid.n
     Mh = cp.mass_matrix(full.body, xh[:13])
     resid = E.T @ (Mh @ (E @ fe[n:2 * n] - fh[13:26]))
     gen = jnp.stack(dy.drivetrain_forces(full, xh[:13], xh[13:26], u, False))
-    return resid, E.T @ (Mh @ (E @ fe[n:2 * n])), fe, fh, gen, xh
+    return resid, E.T @ (Mh @ (E @ fe[n:2 * n])), gen
 
 
 def test_rigid_model_is_the_constrained_hopping_model(models):
@@ -473,9 +479,13 @@ def test_rigid_model_is_the_constrained_hopping_model(models):
     rng = np.random.default_rng(5)
     for contact in (False, True):
         xs = _random_states(rigid, rng, 16, contact)
-        for xe in xs[:4]:
-            u = jnp.asarray(rng.uniform(-10, 10, 4))
-            resid, scale, fe, fh, gen, xh = (np.asarray(a) for a in _both_flows(full, rigid, xe, u))
+        # the first four states, each with its random torques (the flows of both models come
+        # from _power_balance's programs, on all 16 states: the other 12 with u = 0)
+        us = jnp.asarray(np.concatenate([rng.uniform(-10, 10, (4, 4)), np.zeros((12, 4))]))
+        xhs = _on_manifold(rigid, xs)
+        fes, fhs = (np.asarray(_power_balance(m, x, us)[2]) for m, x in ((rigid, xs), (full, xhs)))
+        for u, xh, fe, fh in zip(np.asarray(us)[:4], np.asarray(xhs)[:4], fes[:4], fhs[:4]):
+            resid, scale, gen = (np.asarray(a) for a in _dalembert(full, rigid, xh, u, fe, fh))
             assert np.linalg.norm(resid) < 1e-10 * np.linalg.norm(scale)
             np.testing.assert_allclose(fe[18:], fh[26:], rtol=1e-12, atol=1e-15)
             for s in tb.SIDES:

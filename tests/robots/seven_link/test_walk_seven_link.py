@@ -17,8 +17,26 @@ SHORT = 5
 
 
 @pytest.fixture(scope="module")
-def short_walk():
-    return w.walk(SHORT, "tuned")
+def short_run():
+    """The short walk's record and its simulation: (record, (run_walk's arguments, SimResult))."""
+    runs = []
+    real = w.run_walk
+
+    def recording(*args, **kwargs):
+        res = real(*args, **kwargs)
+        runs.append(((args, kwargs), res))
+        return res
+
+    with pytest.MonkeyPatch.context() as mp:
+        mp.setattr(w, "run_walk", recording)
+        rec = w.walk(SHORT, "tuned")
+    assert len(runs) == 1
+    return rec, runs[0]
+
+
+@pytest.fixture(scope="module")
+def short_walk(short_run):
+    return short_run[0]
 
 
 def test_short_walk_does_not_fall(short_walk):
@@ -40,8 +58,20 @@ def test_short_walk_with_section_va_sensing():
     assert rec["sensing"] == "section V-A" and not rec["fell"] and rec["steps_completed"] == SHORT
 
 
-def test_cli_walk_json_contract(capsys, short_walk, tmp_path):
+def test_cli_walk_json_contract(capsys, short_run, monkeypatch, tmp_path):
+    """The command's record and files; its walk is the short walk's own simulation (run_walk
+    called with the same arguments: the simulation is shared, not run twice), any other walk
+    is simulated."""
+    short_walk, (key, result) = short_run
+    real, asked = w.run_walk, []
+
+    def shared(*args, **kwargs):
+        asked.append((args, kwargs))
+        return result if (args, kwargs) == key else real(*args, **kwargs)
+
+    monkeypatch.setattr(w, "run_walk", shared)
     assert cli.main(["walk", "seven-link", "--steps", str(SHORT), "--json", "--out", str(tmp_path)]) == 0
+    assert asked == [key]  # the defaults: the tuned parameters on the planar model, ideal sensing
     out = capsys.readouterr().out
     lines = out.strip().splitlines()
     assert len(lines) == 1
@@ -83,7 +113,10 @@ def test_free_swing_fig6(capsys):
 
 
 def test_low_gain_pd_fig7():
-    rec = w.low_gain_pd(duration=6.0)
+    """The experiment as `bipedlab experiment seven-link low-gain-pd` and the reproduction run
+    it (8 s, the last 4 analysed): the reproduction tests compile the same program."""
+    rec = w.low_gain_pd()
+    assert rec["duration_s"] == 8.0
     for joint in ("hip", "knee", "ankle"):
         m = rec["joints"][joint]
         # low gains: the response follows the reference's frequency with a reduced amplitude
