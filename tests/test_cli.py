@@ -193,7 +193,19 @@ def _positionals(p) -> list:
     return out
 
 
-def test_an_option_of_one_robot_is_refused_by_another(capsys):
+def test_an_option_of_one_robot_is_refused_by_another(capsys, monkeypatch):
+    # ~200 refusals, each main() building the whole parser: the registry reads the installed
+    # packages' entry points every time (about half of each call), and they cannot change during
+    # the test, so they are read once (the modules they name are still loaded by the registry)
+    real, seen = importlib.metadata.entry_points, {}
+
+    def entry_points(**kw):
+        key = tuple(sorted(kw.items()))
+        if key not in seen:
+            seen[key] = real(**kw)
+        return seen[key]
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
     parsers = cli.command_parsers(cli.build_parser())
     by_verb = {}
     for c in cli.commands():

@@ -1,8 +1,9 @@
-"""``bipedlab reproduce --rerun`` killed for real (SIGKILL in one process, SIGINT with worker
-processes) once an experiment has finished, then the same command again: it names the
+"""``bipedlab reproduce --rerun`` stopped for real (SIGINT with worker processes, SIGKILL in one
+process) once an experiment has finished, then the same command again: it names the
 experiments it resumes, computes only the others, leaves no worker behind, and its report's
-rows are the uninterrupted run's. Three cheap experiments of the quick reproduction (the
-seven-link free swing and low-gain PD, ATRIAS on flat ground)."""
+rows are those of the next, uninterrupted run. Three cheap experiments of the quick
+reproduction (the seven-link free swing and low-gain PD, ATRIAS on flat ground), in one folder
+(four processes, where two tests with a shared reference run took six)."""
 from __future__ import annotations
 
 import json
@@ -12,8 +13,6 @@ import subprocess
 import sys
 import time
 from pathlib import Path
-
-import pytest
 
 SWING, PD, FLAT = "seven-link/free-swing", "seven-link/low-gain-pd", "running/flat"
 
@@ -85,11 +84,11 @@ def _rows(report: dict) -> dict:
             if r["bipedlab"] is not None}
 
 
-@pytest.fixture(scope="module")
-def reference(tmp_path_factory):
-    root = tmp_path_factory.mktemp("reproduce")
-    report, _ = _finish(_argv(root / "report", (SWING, PD, FLAT), jobs=2), _env(root / "cache"))
-    return _rows(report)
+def _stored(err: str) -> set:
+    """The experiments a resumed run names as taken as stored."""
+    lines = [line for line in err.splitlines() if "taken as stored: " in line]
+    assert len(lines) == 1, err[-3000:]
+    return set(lines[0].split("taken as stored: ", 1)[1].strip().split(", "))
 
 
 def _check(report: dict, reference: dict, resumed: set):
@@ -99,22 +98,14 @@ def _check(report: dict, reference: dict, resumed: set):
     assert got == resumed
 
 
-def test_a_killed_rerun_resumes_what_it_finished(reference, tmp_path):
-    env, out, only = _env(tmp_path / "cache"), tmp_path / "report", (SWING, PD)
-    code, err, _ = _interrupt(_argv(out, only, jobs=1), env, signal.SIGKILL, "seven-link: free-swing")
-    assert code == -signal.SIGKILL
-    assert json.loads((out / "progress.json").read_text())["complete"] is False
-    report, err = _finish(_argv(out, only, jobs=1), env)
-    assert "resuming the interrupted run" in err and f"taken as stored: {SWING}" in err
-    assert "free-swing: done in" not in err and "low-gain-pd: done in" in err  # only the rest is computed
-    _check(report, reference, {SWING})
-    assert json.loads((out / "progress.json").read_text())["complete"] is True
-    report, err = _finish(_argv(out, only, jobs=1), env)  # a finished --rerun: the next one computes everything
-    assert "resuming" not in err and "free-swing: done in" in err and "low-gain-pd: done in" in err
-
-
-def test_an_interrupted_run_in_workers_resumes_and_leaves_no_worker(reference, tmp_path):
-    env, out, only = _env(tmp_path / "cache"), tmp_path / "report", (SWING, FLAT)
+def test_interrupted_reruns_resume_what_they_finished_and_leave_no_worker(tmp_path):
+    """One folder, four runs of the same command (jobs is not part of a run's arguments): in two
+    worker processes, interrupted (SIGINT) once the free swing is done; in one process, killed
+    (SIGKILL) once ATRIAS on flat ground is done; in one process to the end, computing only the
+    low-gain PD; then again, computing everything: the reference the resumed report's rows are
+    compared with."""
+    env, out, only = _env(tmp_path / "cache"), tmp_path / "report", (SWING, PD, FLAT)
+    # SIGINT with worker processes (seven-link's two experiments in one, ATRIAS's in the other)
     code, err, kids = _interrupt(_argv(out, only, jobs=2), env, signal.SIGINT, "seven-link: free-swing")
     # (multiprocessing's resource tracker may add its warning about the queues' semaphores)
     assert code == 130 and "bipedlab: interrupted" in err.splitlines(), err[-2000:]
@@ -123,6 +114,21 @@ def test_an_interrupted_run_in_workers_resumes_and_leaves_no_worker(reference, t
     while not all(_gone(k) for k in kids):
         assert time.monotonic() < deadline, "a worker outlived the interrupted run"
         time.sleep(0.2)
-    report, err = _finish(_argv(out, only, jobs=2), env)
-    assert f"taken as stored: {SWING}" in err and "flat: done in" in err and "free-swing: done in" not in err
-    _check(report, reference, {SWING})
+    assert json.loads((out / "progress.json").read_text())["complete"] is False
+    # the same command in one process: it resumes the free swing, computes ATRIAS and is killed
+    code, err, _ = _interrupt(_argv(out, only, jobs=1), env, signal.SIGKILL, "running: flat")
+    assert code == -signal.SIGKILL, err[-2000:]
+    assert "resuming the interrupted run" in err and _stored(err) == {SWING}, err[-2000:]
+    assert "flat: done in" in err and "free-swing: done in" not in err
+    assert json.loads((out / "progress.json").read_text())["complete"] is False
+    # again: it resumes both and computes only the rest
+    report, err = _finish(_argv(out, only, jobs=1), env)
+    assert "resuming the interrupted run" in err and _stored(err) == {SWING, FLAT}, err[-2000:]
+    assert "free-swing: done in" not in err and "flat: done in" not in err and "low-gain-pd: done in" in err
+    assert json.loads((out / "progress.json").read_text())["complete"] is True
+    # a finished --rerun: the next one computes everything (uninterrupted: the reference)
+    again, err = _finish(_argv(out, only, jobs=2), env)
+    assert "resuming" not in err and all(f"{e}: done in" in err for e in ("free-swing", "low-gain-pd", "flat")), \
+        err[-2000:]
+    _check(again, _rows(again), set())
+    _check(report, _rows(again), {SWING, FLAT})

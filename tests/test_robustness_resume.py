@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import json
 import os
+import shutil
 import signal
 import subprocess
 import sys
@@ -99,25 +100,33 @@ def _resume_and_compare(out: Path, reference):
     return got
 
 
-@pytest.mark.parametrize("sig, code, line", [(signal.SIGKILL, -signal.SIGKILL, None),
-                                             (signal.SIGINT, 130, "bipedlab: interrupted")])
-def test_a_killed_run_resumes_to_the_uninterrupted_outcomes(reference, tmp_path, sig, code, line):
-    out = tmp_path / "atlas"
-    rc, err = _interrupt(out, sig)
-    assert rc == code, err[-3000:]
-    if line:
-        assert err.rstrip().endswith(line)
+def _interrupted(out: Path, rc: int, err: str, sig, at_least: int) -> int:
+    """The checks on a run stopped by ``sig`` once ``at_least`` chunks were written: its exit
+    code (and last line for SIGINT), no outcomes, every chunk under its final name whole;
+    returns the number of chunk files."""
+    if sig == signal.SIGKILL:
+        assert rc == -signal.SIGKILL, err[-3000:]
+    else:
+        assert rc == 130, err[-3000:]
+        assert err.rstrip().endswith("bipedlab: interrupted")
     assert not (out / "outcomes.npz").exists()
     written = sorted((out / "chunks").glob("chunk-*.npz"))
-    assert 3 <= len(written) < TRIALS // 8
+    assert at_least <= len(written) < TRIALS // 8  # the signal landed mid-run
     for f in written:  # every chunk under its final name is whole
         with np.load(f) as z:
             assert {z[k].shape for k in z.files if k.startswith("out_")} == {(8,)}
-    _resume_and_compare(out, reference)
+    return len(written)
 
 
-def test_a_full_disk_ends_in_one_line_and_the_run_resumes(reference, tmp_path):
+def test_a_full_disk_a_kill_and_an_interrupt_each_resume_to_the_uninterrupted_outcomes(reference, tmp_path):
+    """One folder, four processes of the same command: stopped by a full disk at the third
+    chunk (one line, status 1, two whole chunks kept); run again, it resumes those 16 trials and
+    is killed (SIGKILL) once 4 chunks are written; run again, it resumes and is interrupted
+    (SIGINT) once 8 are written; run again, it ends with the uninterrupted run's outcomes, bit
+    for bit. Each stop leaves chunks the next run reads back, so a bad chunk from any of them
+    changes the final outcomes."""
     out = tmp_path / "atlas"
+    # a full disk after two chunks
     argv = [sys.executable, "-c", FULL_DISK, *_command(out)[3:]]
     code, stdout, err = _finish(argv)
     assert code == 1 and stdout == ""
@@ -128,20 +137,41 @@ def test_a_full_disk_ends_in_one_line_and_the_run_resumes(reference, tmp_path):
                                                                   "manifest.json"]
     assert sorted(p.name for p in out.iterdir()) == ["chunks"]
     assert not [p for p in out.parent.iterdir() if p.name.startswith(".bipedlab-tmp-")]  # staged outputs removed
-    assert _resume_and_compare(out, reference)["resumed_trials"] == 16
+    # run again: it resumes the two whole chunks (16 trials, not the half-written third) and is killed
+    rc, err = _interrupt(out, signal.SIGKILL, after_chunks=4)
+    assert f"resuming: 16 of {TRIALS} trials" in err, err[-3000:]
+    killed_at = _interrupted(out, rc, err, signal.SIGKILL, 4)
+    # run again: it resumes what the killed run wrote and is interrupted
+    rc, err = _interrupt(out, signal.SIGINT, after_chunks=8)
+    assert f"resuming: {8 * killed_at} of {TRIALS} trials" in err, err[-3000:]
+    interrupted_at = _interrupted(out, rc, err, signal.SIGINT, 8)
+    # run again: the rest, and the uninterrupted run's outcomes
+    assert _resume_and_compare(out, reference)["resumed_trials"] == 8 * interrupted_at
 
 
-def test_other_options_on_the_same_out_are_refused_then_restart(reference, tmp_path):
+def test_other_options_on_the_same_out_are_refused_then_restart(reference, tmp_path, capsys):
+    """The refusal is checked in this process (bipedlab.cli.main; nothing is computed before
+    it), on a copy of the uninterrupted run's folder; the --restart run is a real process."""
+    import jax
+
+    from bipedlab.cli import main
+
+    jax.devices()  # this process's devices are up: the command's --devices 2 leaves them as they are
     ref, _ = reference
     out = tmp_path / "atlas"
-    code, _, err = _finish(_command(out, trials=16))
-    assert code == 0, err[-3000:]
-    code, stdout, err = _finish(_command(out, trials=24))
-    assert code == 2 and stdout == "", err
+    shutil.copytree(ref, out)
+    argv = _command(out, trials=24)[3:]
+    with pytest.raises(SystemExit) as exc:
+        main(argv)
+    assert exc.value.code == 2
+    captured = capsys.readouterr()
+    stdout, err = captured.out, captured.err
+    assert stdout == "", err
     errors = [line for line in err.splitlines() if line.startswith("bipedlab: error:")]
     assert len(errors) == 1 and errors[0] == err.strip().splitlines()[-1]
     assert errors[0].startswith("bipedlab: error: robustness five-link: --out: ")
-    assert "trials: 16 in the stored run, 24 now" in errors[0] and "--restart" in errors[0]
+    assert f"trials: {TRIALS} in the stored run, 24 now" in errors[0] and "--restart" in errors[0]
+    assert not [p for p in out.parent.iterdir() if p.name.startswith(".bipedlab-tmp-")]  # staged outputs removed
     code, stdout, err = _finish(_command(out, "--restart", trials=24))
     assert code == 0, err[-3000:]
     assert json.loads(stdout)["resumed_trials"] == 0 and "discarded the chunks" in err
