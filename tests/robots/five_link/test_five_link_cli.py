@@ -1,9 +1,11 @@
 """The `bipedlab optimize` and `bipedlab walk` commands (five-link HZD studies).
 
-The walk runs are subprocesses sharing the test run's JAX compilation cache (BIPEDLAB_CACHE_DIR,
-a fresh folder per run), so the second run reuses the first one's Poincaré compilation. The
-full optimisation (about a minute) is marked slow; tests/gait/test_hzd_gait.py checks a few
-solver iterations by default."""
+The two walks (from the fixed point and perturbed, the same number of steps) run in this
+process (``cli.main``, stdout and stderr captured: the record is the one line on stdout), so
+the second reuses the first one's compiled Poincaré analysis and walk; the console script
+itself runs as a subprocess for the exit status of bad input. The full optimisation (about a
+minute) is marked slow; tests/robots/five_link/test_five_link_gait.py checks a few solver
+iterations by default."""
 from __future__ import annotations
 
 import json
@@ -66,21 +68,43 @@ def _check_types(rec, keys):
             assert isinstance(v, t), (k, v)
 
 
-@pytest.fixture(scope="module")
-def perturbed_walk(env):
-    return _json_record(_run(["walk", "five-link", "--perturb", "0.05", "--steps", "50", "--json"], env))
+def _main_json(args):
+    """``bipedlab ARGS`` run in this process: its record, the one line it prints on stdout."""
+    import contextlib
+    import io
+
+    out, err = io.StringIO(), io.StringIO()
+    with contextlib.redirect_stdout(out), contextlib.redirect_stderr(err):
+        status = cli.main(list(args))
+    assert status == 0, err.getvalue()
+    lines = out.getvalue().strip().splitlines()
+    assert len(lines) == 1, out.getvalue()  # --json: one object and nothing else on stdout
+    return json.loads(lines[0])
+
+
+#: steps of both walks: the step count is a static argument of the compiled walk, so one count
+#: is one program (a second count compiled the whole walk again)
+STEPS = 50
 
 
 @pytest.fixture(scope="module")
-def short_walk(env, perturbed_walk):  # after the long run: its compiled Poincaré map is cached
-    return _json_record(_run(["walk", "five-link", "--steps", "3", "--json"], env))
+def perturbed_walk():
+    return _main_json(["walk", "five-link", "--perturb", "0.05", "--steps", str(STEPS), "--json"])
 
 
-def test_walk_three_steps_json(short_walk):
-    r = short_walk
+@pytest.fixture(scope="module")
+def unperturbed_walk(perturbed_walk):  # after the perturbed run: its compiled programs are reused
+    return _main_json(["walk", "five-link", "--steps", str(STEPS), "--json"])
+
+
+def test_walk_from_the_fixed_point_json(unperturbed_walk):
+    """From the fixed point the walk stays on the orbit: 50 steps end 1.0e-6 from it (the
+    closed loop's own fixed point, which the design's RK4 in the phase puts there; 7e-7 after
+    3 steps)."""
+    r = unperturbed_walk
     _check_types(r, WALK_KEYS)
     assert r["fell"] is False and r["status"] == "ok"
-    assert r["steps_completed"] == 3
+    assert r["steps_completed"] == STEPS
     assert r["speed_mps"] == pytest.approx(0.8, rel=0.05)
     assert 0.0 < r["max_abs_eigenvalue"] < 1.0
     assert r["max_abs_eigenvalue"] == pytest.approx(max(r["poincare_eigenvalues"]), rel=1e-12)
@@ -95,21 +119,21 @@ def test_walk_three_steps_json(short_walk):
     assert r["gait_speed_mps"] == pytest.approx(0.8, abs=1e-9)
 
 
-def test_walk_from_a_perturbed_state_converges(perturbed_walk, short_walk):
+def test_walk_from_a_perturbed_state_converges(perturbed_walk, unperturbed_walk):
     r = perturbed_walk
     _check_types(r, WALK_KEYS)
-    assert r["fell"] is False and r["steps_completed"] == 50
+    assert r["fell"] is False and r["steps_completed"] == STEPS
     assert r["initial_deviation"] > 0.1
     assert r["final_deviation"] < 1e-4 * r["initial_deviation"]
     dev = np.asarray(r["deviation_per_step"])
-    assert dev.size == 50
+    assert dev.size == STEPS
     # early on the distance shrinks about like the dominant Poincaré eigenvalue per step
     ratios = dev[6:16] / dev[5:15]
     assert np.all(ratios < 1.0)
     assert np.median(ratios) == pytest.approx(r["max_abs_eigenvalue"], abs=0.05)
     # the converged walk is the unperturbed one
     assert r["speed_mps"] == pytest.approx(0.8, rel=0.05)
-    assert r["max_abs_eigenvalue"] == short_walk["max_abs_eigenvalue"]
+    assert r["max_abs_eigenvalue"] == unperturbed_walk["max_abs_eigenvalue"]
 
 
 # ---- bad input: status 2, one line on stderr ----------------------------------------------

@@ -112,13 +112,17 @@ def test_grazing_gait_is_no_fixed_point_of_any_gain():
 # ----------------------------------------------------------------------------- the design
 @pytest.fixture(scope="module")
 def bounded_problem():
-    """(setup, the bounded problem, the bounded gait's decision vector, its gait file record);
-    one problem, so both tests below run on its one compiled evaluation."""
+    """(setup, the bounded problem, the bounded gait's decision vector, its gait file record):
+    the restricted map's slope at most 0.6 (the bounded gait's bound) and a clearance of 0.03 m
+    (neither shipped gait was designed with one; only the clearance test reads its rows, which
+    come before the slope's two, the last, and touch no other row). One problem, so the three
+    tests below run on its one compiled evaluation (they compiled three: the problems with the
+    bound alone, with the clearance alone and with neither)."""
     from bipedlab.gait import optimize as go
     from bipedlab.gait import study as hs
 
     s, vc, z, rec = _gait(BOUNDED)
-    prob = hs.problem(s.study, 0.7, "torque", max_eigenvalue=0.6)
+    prob = hs.problem(s.study, 0.7, "torque", max_eigenvalue=0.6, clearance=0.03)
     return s, prob, go.pack(z, np.asarray(vc.alpha)[:, 2:prob.order - 1]), rec
 
 
@@ -167,23 +171,30 @@ def test_bounded_design_slope_differentiates(bounded_problem):
     assert float(dslope) == pytest.approx(fd, rel=1e-6)
 
 
-def test_clearance_constraint_rejects_the_grazing_gait():
+def test_clearance_constraint_rejects_the_grazing_gait(bounded_problem):
     """With a clearance of 0.03 m the grazing gait (0 m at node 23 of 40) violates the design's
-    clearance rows by 10 (0 - 0.03 * 4 s (1 - s)) there; without one it is feasible."""
+    clearance rows by 10 (0 - 0.03 * 4 s (1 - s)) there; without one it is feasible: the rows of
+    the problem without a clearance (their count from its evaluation's shape, traced, not
+    compiled) come first and all hold."""
+    import jax
     import jax.numpy as jnp
 
     from bipedlab.gait import optimize as go
     from bipedlab.gait import study as hs
 
-    s, vc, z, _ = _gait(FREE)
+    _, prob, _, rec_bounded = bounded_problem
+    s, vc, z, rec = _gait(FREE)
+    # the same robot and sites: the bounded gait's problem is the grazing gait's too
+    assert (rec["design"]["stance"], rec["design"]["swing"]) == (rec_bounded["design"]["stance"],
+                                                                 rec_bounded["design"]["swing"])
     plain = hs.problem(s.study, 0.7, "torque")
     x = jnp.asarray(go.pack(z, np.asarray(vc.alpha)[:, 2:plain.order - 1]))
-    ineq0 = np.asarray(go.evaluator(plain)(x)[2])
-    assert ineq0.min() > -1e-9
-    prob = hs.problem(s.study, 0.7, "torque", clearance=0.03)
+    n_plain = jax.eval_shape(lambda y: go.evaluate(plain, y), x)[2].shape[0]
     ineq = np.asarray(go.evaluator(prob)(x)[2])
+    ineq0 = ineq[:n_plain]
+    assert ineq0.min() > -1e-9
     N = prob.nodes
-    rows = ineq[ineq0.size:]
+    rows = ineq[ineq0.size:-2]  # the last two: the slope bound's
     assert rows.size == N - 1
     k = int(np.argmin(rows)) + 1
     assert k == 23 and rows[k - 1] == pytest.approx(-10 * 0.03 * 4 * (k / N) * (1 - k / N), abs=1e-9)
