@@ -76,28 +76,44 @@ def pytest_unconfigure(config):
 
 
 # ----- longest modules first ----------------------------------------------------------------
-#: The test modules that take longest (seconds of setup + calls + teardown, the mean of two
-#: default-tier runs on a two-core Xeon, summed per module from ``--junitxml``; the compile
-#: profile below gives their compile seconds, not these totals).
+#: The test modules that take longest (seconds of setup + calls + teardown summed per module
+#: from ``--junitxml``, one default-tier run on a two-core AMD EPYC at commit ae0404b; the
+#: compile profile below gives their compile seconds, not these totals).
 #: The workers take modules in collection order (--dist loadfile), so a long module collected
 #: last keeps one worker busy while the other idles; these go first, the short ones fill the end.
 LONGEST_FIRST = (
-    "robots/imported/test_stable_by_design.py",   # 100 s
-    "test_robustness_resume.py",                  # 97 s
-    "test_docs.py",                               # 78 s
-    "test_reproduce_resume.py",                   # 76 s
-    "robots/mabel/sysid/test_sysid_cli.py",       # 73 s
-    "robots/seven_link/test_walk_seven_link.py",  # 64 s
-    "robots/five_link/test_five_link_cli.py",     # 54 s
-    "robots/mabel/test_mabel_model.py",           # 48 s
-    "robots/five_link/test_five_link_gait.py",    # 46 s
-    "robots/atrias/test_atrias_controller.py",    # 45 s
-    "test_cli.py",                                # 41 s
-    "robots/mabel/test_hop_mabel.py",             # 41 s
-    "core/sim/test_gradients.py",                 # 38 s
-    "robots/seven_link/test_seven_link_boom.py",  # 37 s
-    "robots/mabel/test_mabel_full_plant.py",      # 33 s
-    "test_reproduce_browser.py",                  # 26 s
+    "robots/imported/test_stable_by_design.py",       # 113 s
+    "test_docs.py",                                   # 80 s
+    "robots/seven_link/test_walk_seven_link.py",      # 79 s
+    "robots/mabel/sysid/test_sysid_cli.py",           # 78 s
+    "test_robustness_resume.py",                      # 64 s
+    "robots/five_link/test_five_link_gait.py",        # 62 s
+    "test_reproduce_resume.py",                       # 59 s
+    "robots/atrias/test_atrias_controller.py",        # 59 s
+    "core/sim/test_gradients.py",                     # 58 s
+    "test_cli.py",                                    # 44 s
+    "robots/seven_link/test_seven_link_boom.py",      # 43 s
+    "robots/mabel/test_hop_mabel.py",                 # 41 s
+    "robots/mabel/test_mabel_full_plant.py",          # 38 s
+    "robots/mabel/test_mabel_model.py",               # 38 s
+    "robots/five_link/test_five_link_cli.py",         # 37 s
+    "test_reproduce_browser.py",                      # 35 s
+    "robots/mabel/test_mabel_walking_controllers.py", # 33 s
+    "robots/atrias/test_run_atrias_fidelity.py",      # 29 s
+    "core/contact/test_rigid.py",                     # 29 s
+    "robots/atrias/test_atrias_shared_program.py",    # 28 s
+    "golden/test_golden_cli.py",                      # 27 s
+    "core/control/test_hzd.py",                       # 26 s
+    "core/mechanics/test_tree_dynamics.py",           # 26 s
+    "robots/mabel/test_mabel_vc_and_zd.py",           # 25 s
+    "test_studybench.py",                             # 24 s
+    "robots/mabel/test_mabel_paper_design.py",        # 24 s
+    "core/robustness/test_chunks.py",                 # 24 s
+    "robots/mabel/sysid/test_sysid_legs.py",          # 24 s
+    "core/mechanics/test_stance.py",                  # 24 s
+    "golden/test_golden_loops.py",                    # 22 s
+    "core/mechanics/test_kinematics.py",              # 21 s
+    "robots/mabel/test_mabel_fidelity.py",            # 19 s
 )
 
 
