@@ -129,3 +129,62 @@ def test_the_judged_gait_is_the_records_and_the_rows_name_it():
 def test_the_experiment_keeps_the_joint_side_at_the_leg_shape_gear():
     x = dict(tracking_rms_deg=dict(mLS_st=31.42), tracking_peak_deg=dict(mLS_st=62.84))
     assert wx._joint_side(x) == dict(mLS_st_rms_joint_deg=pytest.approx(1.0), mLS_st_peak_joint_deg=pytest.approx(2.0))
+
+
+def _selection(shipped=True):
+    """A stand-in eps_selection record: PD + FF 8.0 deg, eq. 42 at one eps 3.6 deg, decentralised
+    3.2 deg; the stance leg-shape output meets the c_mt bound at two stiffer values, the others
+    fail at their first."""
+    from bipedlab.robots.mabel.walking import controllers as ctl
+
+    def trial(k, rise, met):
+        return dict(index=k, eps=ctl.EPS_GRID[k], cmt_rise=rise, met=met, fell=rise is None)
+
+    trials = [[trial(1, 0.001, True), trial(2, 0.03, True), trial(3, 0.4, False)],
+              [trial(1, 0.11, False)], [trial(1, None, False)], [trial(1, 0.25, False)]]
+    return dict(steps=30, grid=list(ctl.EPS_GRID), cmt_rise=0.05, outputs=["mLS_st", "LA_sw", "mLS_sw", "Tor"],
+                pdff=_run(8.0, 0.2, 30), base=dict(iolin=_run(3.6, 0.1, 30), decentralized=_run(3.2, 0.1, 30)),
+                trials=dict(iolin=trials, decentralized=trials), eps=[ctl.EPS_GRID[1]] + [ctl.EPS] * 3,
+                shipped=shipped)
+
+
+def test_the_one_eps_row_shows_the_ratio_before_the_per_output_choice_and_what_chose_it():
+    """fullplant_one_eps_mls_st_rms_ratio (shown, not judged): PD + FF over eq. 42 with one eps on
+    every output, the decentralised ratio, the chosen eps per output and the c_mt rises that chose
+    them; the text renders from the facts and says when the rule's choice is not the shipped one."""
+    rid = "fullplant_one_eps_mls_st_rms_ratio"
+    records = _records()
+    records["full-plant"]["eps_selection"] = _selection()
+    out = _rows(records)
+    m = out[rid]
+    assert isinstance(m, Measured) and m.value == pytest.approx(8.0 / 3.6)
+    assert m.facts["decentralized"] == pytest.approx(8.0 / 3.2)
+    assert m.facts["kept"].startswith("+3.0 % down to") and m.facts["others"] == "LA_sw +11 %, mLS_sw fell, Tor +25 %"
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    assert rows[rid]["tolerance"]["kind"] == "report" and rows[rid]["gait"] == wx.HEADLINE_JUDGED
+    text = values.render(rows[rid]["tolerance"]["why"], dict(m.facts, value=m.value), rid)
+    assert "{" not in text and "the shipped controllers.EPS_OUTPUTS" in text
+    records["full-plant"]["eps_selection"] = _selection(shipped=False)
+    assert "NOT the shipped" in _rows(records)[rid].facts["shipped"]
+    assert isinstance(_rows(_records())[rid], Skip) and isinstance(_rows({})[rid], Skip)
+
+
+def test_the_steps_row_says_what_the_stiffer_cables_do():
+    """fullplant_hzd_steps carries the cable variant: each eq. 42 controller on the cable gait
+    with the identified cables (its headline run) and with the stiffer ones, steps walked and the
+    stance leg-shape cable's peak stretch; the departure text renders it."""
+    records = _records()
+    fp = records["full-plant"]
+    for by in fp["hzd_runs"].values():
+        for x in by.values():
+            x["cable_stretch_peak_deg"] = dict(mLS_st=87.0)
+    walked = dict(_run(1.5, 0.2, 100), cable_stretch_peak_deg=dict(mLS_st=17.0))
+    fp.update(cable_gait="nominal", cable_scale=10.0, cable_runs=dict(pdff=walked, iolin=walked, decentralized=walked))
+    m = _rows(records)[IDS[2]]
+    assert m.facts["cable"].startswith("iolin on nominal: identified cables falls in step 2, stance leg-shape cable "
+                                       "stretched 87 deg; cables x 10 walks 100 steps, stance leg-shape cable "
+                                       "stretched 17 deg; decentralized on nominal: identified cables walks 100 steps")
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    text = values.render(rows[IDS[2]]["departs_why"], dict(m.facts, value=m.value), IDS[2])
+    assert "{" not in text and "cables x 10 walks 100 steps" in text
+    assert _rows(_records())[IDS[2]].facts["cable"] == "the cable variant was not run here"

@@ -72,7 +72,7 @@ def _ydd(vc, p, z, qdd):
 
 def test_iolin_imposes_the_linear_output_dynamics(gait, fns):
     """Eq. 42 below saturation: the full stance dynamics under u give
-    y-dd = -(Kp/eps^2) y - (Kd/eps) y-dot exactly."""
+    y-dd = -(Kp/eps^2) y - (Kd/eps) y-dot exactly, each output with its own eps."""
     vc, g, _ = gait
     for p, z in _states(gait, fns):
         u = np.asarray(fns["iolin"](vc, p, z, g))
@@ -80,7 +80,9 @@ def test_iolin_imposes_the_linear_output_dynamics(gait, fns):
         qdd = np.asarray(fns["flow"](z, jnp.asarray(u)))[6:]
         y, yd = (np.asarray(a) for a in vcm.outputs(vc, p, z[:6], z[6:]))
         assert np.max(np.abs(y)) > 1e-3  # off the manifold
-        target = -(float(g.kp_io) / float(g.eps) ** 2) * y - (float(g.kd_io) / float(g.eps)) * yd
+        eps = np.asarray(g.eps)  # per output
+        assert eps.shape == (4,)
+        target = -(float(g.kp_io) / eps ** 2) * y - (float(g.kd_io) / eps) * yd
         ydd = _ydd(vc, p, z, qdd)
         assert ydd == pytest.approx(target, rel=1e-8, abs=1e-8 * max(1.0, np.max(np.abs(target))))
 
@@ -103,7 +105,8 @@ def test_decentralized_feedback_uses_only_the_diagonal(gait, fns):
     vc, g, _ = gait
     for p, z in _states(gait, fns):
         y, yd, A, lf2 = (np.asarray(a) for a in fns["decoupling"](vc, p, z))
-        v = -(float(g.kp_io) / float(g.eps) ** 2) * y - (float(g.kd_io) / float(g.eps)) * yd
+        eps = np.asarray(g.eps)  # per output
+        v = -(float(g.kp_io) / eps ** 2) * y - (float(g.kd_io) / eps) * yd
         u = np.asarray(fns["dec"](vc, p, z, g))
         assert np.all(np.abs(u) < np.asarray(g.limit))
         u_star = np.linalg.solve(A, -lf2)

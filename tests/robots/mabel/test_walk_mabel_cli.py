@@ -136,16 +136,16 @@ def test_pd_gains_refuses_steps(capsys):
 def test_falling_pairing_is_refused(capsys):
     """A shipped gait under a controller/sensing pairing that falls within 100 steps (measured,
     catalog.GAIT_FALLS) is refused with one line naming the fall."""
-    expect_usage_error(["walk", "mabel", "--gait", "efficient", "--controller", "iolin", "--sensing",
-                        "observer"], capsys, "falls under iolin")
+    expect_usage_error(["walk", "mabel", "--gait", "efficient", "--controller", "decentralized", "--sensing",
+                        "ideal"], capsys, "falls under decentralized")
 
 
 @pytest.mark.slow
 def test_refused_pairing_does_fall():
-    """The refusal is a measurement: efficient under eq. 42 with the velocity observer falls in
-    step 4 of 100 (0.74 s in; a quantised walk moves with the CPU's rounding, so a fall after
-    step 20 would be accepted for a fall measured later). Every refused pairing of the
-    catalogue falls within the 100 steps asked."""
+    """The refusal is a measurement: efficient under the decentralised controller with exact
+    sensing falls in step 2 of 100 (0.21 s in; a quantised walk moves with the CPU's rounding, so
+    a fall after step 20 would be accepted for a fall measured later). Every refused pairing of
+    the catalogue falls within the 100 steps asked."""
     for (gait, controller, sensing), (steps, _) in catalog.GAIT_FALLS.items():
         r = wm.walk(gait, controller, 100, sensing=sensing)
         assert r["fell"] and min(20, steps) <= r["steps_completed"] < 100, (gait, controller, sensing)

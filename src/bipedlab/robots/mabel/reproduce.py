@@ -422,9 +422,10 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         for key, sign in (("push_force_plus_45pct_n", "plus"), ("push_force_minus_45pct_n", "minus")):
             out[key] = (dig(push, f"force_for_{sign}_45pct_n") if "searches" in push else
                         Skip("the force search (a dozen walks per direction) runs in the full run only"))
+        out.update(_full_plant_pushes(push))
     else:
         for k in ("push_forward_change", "push_forward_steps", "push_backward_change", "push_backward_steps",
-                  "push_forward_survived", "push_force_plus_45pct_n", "push_force_minus_45pct_n"):
+                  "push_forward_survived", "push_force_plus_45pct_n", "push_force_minus_45pct_n") + FULL_PUSH_ROWS:
             out[k] = skip
     eff = records.get("efficient")
     out["exp3_cmt"] = dig(eff, "cmt") if eff else skip
@@ -492,6 +493,43 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     return out
 
 
+FULL_PUSH_ROWS = ("fullplant_push_force_plus_45pct_n", "fullplant_push_force_minus_45pct_n", "fullplant_push_forward_steps",
+                  "fullplant_push_backward_steps", "fullplant_push_recovery_asymmetry")
+
+
+def _full_plant_pushes(push: dict) -> dict:
+    """Exp. 2 on the 13-DoF plant (experiment push's ``full_plant``): the forces that change the
+    speed by +45 % / -45 % under PD + feedforward, the steps back within 2 % after each, and the
+    forward recovery's steps minus the backward one's (the paper: 10 against 3)."""
+    fp = push.get("full_plant")
+    if not fp:
+        return {k: Skip("the 13-DoF force searches run in the full run only") for k in FULL_PUSH_ROWS}
+    plus, minus = fp["searches"]
+    out = {}
+    for rid, x, stance in ((FULL_PUSH_ROWS[0], plus, push.get("force_for_plus_45pct_n")),
+                           (FULL_PUSH_ROWS[1], minus, push.get("force_for_minus_45pct_n"))):
+        out[rid] = Measured(x["force_n"], dict(change=x["speed_change"], stance=stance, converged=x["converged"]))
+    back = {}
+    for rid, x in ((FULL_PUSH_ROWS[2], plus), (FULL_PUSH_ROWS[3], minus)):
+        if x["fell"]:
+            out[rid] = Failed(f"the {x['force_n']:+.0f} N push's walk fell in step {x['steps_completed'] + 1}")
+        elif x.get("steps_to_recover") is None:
+            out[rid] = Failed(f"not back within 2 % of the unpushed speed in the {len(x['speed_per_step']) - x['step']} "
+                              "steps simulated after the push")
+        else:
+            back[rid] = x["steps_to_recover"]
+            settle = x["steps_to_recover_5pct"]
+            out[rid] = Measured(back[rid], dict(force=x["force_n"], change=x["speed_change"],
+                                                settle="never" if settle is None else f"{settle} steps"))
+    if len(back) < 2:
+        out[FULL_PUSH_ROWS[4]] = Failed("a recovery was not measured (rows fullplant_push_forward_steps, "
+                                        "fullplant_push_backward_steps)")
+    else:
+        f, b = back[FULL_PUSH_ROWS[2]], back[FULL_PUSH_ROWS[3]]
+        out[FULL_PUSH_ROWS[4]] = Measured(f - b, dict(forward=f, backward=b))
+    return out
+
+
 def _nearest_eigenvalue(pdg: dict, gait: str):
     """The PD + feedforward map's dominant eigenvalue at the pd-gains grid point nearest the
     paper's in the complex plane (the experiment's ``closest_to_paper``; Sec. IV-A: 0.6921 and
@@ -517,7 +555,8 @@ def _headline(fp, quick: bool, out: dict) -> None:
     hzd = (fp or {}).get("hzd_runs")
     ids = ("fullplant_exp4_mls_st_rms_ratio", "fullplant_exp4_tor_rms_ratio", "fullplant_hzd_steps")
     if not hzd:
-        out.update({i: Skip("experiment full-plant was not run, or ran without the headline walks") for i in ids})
+        out.update({i: Skip("experiment full-plant was not run, or ran without the headline walks")
+                    for i in ids + ("fullplant_one_eps_mls_st_rms_ratio",)})
         return
     judged = fp.get("judged_gait", "paper-nominal")
     pd, io = hzd[judged]["pdff"], hzd[judged]["iolin"]
@@ -538,8 +577,54 @@ def _headline(fp, quick: bool, out: dict) -> None:
     if quick and which == "none":
         out[ids[2]] = Skip(f"the --quick run walks {fp['steps']} steps, fewer than the 78 the row asks")
     else:
-        out[ids[2]] = Measured(least, dict(which=which))
+        out[ids[2]] = Measured(least, dict(which=which, cable=_cable_text(fp)))
     _headline_variants(fp, out)
+    _one_eps(fp.get("eps_selection"), out)
+
+
+def _one_eps(sel, out: dict) -> None:
+    """The row of eq. 42's gain choice (shown, not judged): PD + feedforward's stance leg-shape
+    RMS error over eq. 42's with one eps on every output, from experiment full-plant's
+    eps_selection, with the eps it chose per output and what the c_mt rule saw."""
+    rid = "fullplant_one_eps_mls_st_rms_ratio"
+    if not sel:
+        out[rid] = Skip("the --quick run walks no eps selection")
+        return
+    pd, base = sel["pdff"], sel["base"]
+    if pd["fell"] or base["iolin"]["fell"]:
+        out[rid] = Failed("a controller fell at one eps on every output (experiment full-plant, eps_selection)")
+        return
+    a = pd["tracking_rms_deg"]["mLS_st"]
+    ratio = {c: a / x["tracking_rms_deg"]["mLS_st"] for c, x in base.items() if not x["fell"]}
+    first = [sel["trials"]["iolin"][i][0] for i in range(1, 4)]
+    kept = [x for x in sel["trials"]["iolin"][0] if x["met"]]
+    facts = dict(pdff=a, hzd=base["iolin"]["tracking_rms_deg"]["mLS_st"], steps=sel["steps"], one_eps=sel["grid"][0],
+                 decentralized=ratio.get("decentralized", float("nan")), rise=sel["cmt_rise"],
+                 chosen=", ".join(f"{e:.4f}" for e in sel["eps"]),
+                 shipped="the shipped controllers.EPS_OUTPUTS" if sel["shipped"] else "NOT the shipped EPS_OUTPUTS",
+                 kept=(f"{100 * max(x['cmt_rise'] for x in kept):+.1f} % down to {kept[-1]['eps']:.4f}" if kept
+                       else "none"),
+                 others=", ".join(f"{sel['outputs'][i + 1]} " + ("fell" if x["cmt_rise"] is None
+                                                                 else f"{100 * x['cmt_rise']:+.0f} %")
+                                  for i, x in enumerate(first)))
+    out[rid] = Measured(ratio["iolin"], facts)
+
+
+def _cable_text(fp: dict) -> str:
+    """What experiment full-plant's cable variant shows: the cable gait under each eq. 42
+    controller with the identified cables (the headline run) and with the stiffer cables, steps
+    walked and the stance leg-shape cable's peak stretch (motor side)."""
+    runs, g = fp.get("cable_runs"), fp.get("cable_gait")
+    if not runs or g not in fp.get("hzd_runs", {}):
+        return "the cable variant was not run here"
+
+    def walked(x):
+        return (f"falls in step {x['steps_completed'] + 1}" if x["fell"] else f"walks {x['steps_completed']} steps") + \
+            f", stance leg-shape cable stretched {x['cable_stretch_peak_deg']['mLS_st']:.0f} deg"
+
+    parts = [f"{c} on {g}: identified cables {walked(fp['hzd_runs'][g][c])}; cables x {fp['cable_scale']:g} "
+             f"{walked(x)}" for c, x in runs.items() if c != "pdff"]
+    return "; ".join(parts) + " (experiment full-plant, cable_runs)"
 
 
 def _fewest_steps(hzd: dict):

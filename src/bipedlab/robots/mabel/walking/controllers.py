@@ -44,7 +44,7 @@ _THETA_Q = jnp.asarray([-1.0, 0.0, 0.0, 0.0, 0.0, -1.0])
 @pytree
 class Gains:
     """kp, kd (4,) per output for pdff (motor N m per rad, per rad/s of the output);
-    eps, kp_io, kd_io for eq. 42; beta (4 phases, 4 actuators, 6): u* Béziers; beta_bounds
+    eps (4,) per output, kp_io, kd_io for eq. 42; beta (4 phases, 4 actuators, 6): u* Béziers; beta_bounds
     (4, 2): theta-domain of each phase's regression; signs (4,): sign of each output's motor;
     limit (4,): torque saturation (N m)."""
 
@@ -159,14 +159,41 @@ def output_signs(m, vc, z):
 #: about 1e-3 kg m^2 effective inertia; 3.5 N m/rad needs 0.01738-0.01741 on the five gaits); the
 #: other outputs then get 1.6-6.2 times pdff's stiffness. At the earlier 0.05 that motor saw an
 #: eighth of pdff's (measured, 13-DoF plant, paper-nominal, 100 steps on the encoders: stance leg
-#: shape 12.2 deg rms against pdff's 6.8; at this eps 2.2).
+#: shape 12.2 deg rms against pdff's 6.8; at this eps 2.2). The base of :data:`EPS_OUTPUTS`.
 EPS = 0.0173
+
+#: the grid :data:`EPS_OUTPUTS` is chosen on: EPS * 2^(-k/2), k = 0 ... 8 (EPS down to EPS / 16)
+EPS_GRID = tuple(EPS * 2.0 ** (-k / 2) for k in range(9))
+#: how much an output's stiffer loop may raise the walk's c_mt over the loop at EPS
+EPS_CMT_RISE = 0.10
+#: grid steps of margin: the chosen eps's next stiffer grid value must meet the c_mt bound too
+EPS_MARGIN = 1
+
+#: eq. 42's eps per output (mLS_st, LA_sw, mLS_sw, Tor). The outer loop gives every output of one
+#: eps the same poles, and eq. 42 does not ask that (Kp/eps^2 and Kd/eps may differ per output;
+#: the paper gives none). Each output's eps is the stiffest value of :data:`EPS_GRID` at which the
+#: 13-DoF plant on the experiments' gait (paper-575, encoders at 1 kHz) keeps its c_mt within
+#: EPS_CMT_RISE of the loop at EPS under eq. 42 and its decentralised form, with the other
+#: outputs at EPS and EPS_MARGIN grid steps of margin: a stiffer loop than that turns the
+#: quantised, filtered rate estimate into motor work (the drives chatter) before it tracks better.
+#: Measured (:func:`bipedlab.robots.mabel.walking.experiments.eps_selection`, 30 steps, two-core
+#: Xeon; c_mt at EPS 0.264 eq. 42 / 0.189 decentralised): the stance leg-shape output keeps c_mt
+#: within 1 % from EPS down to EPS / 5.7 = 0.0031, rises +3.4 % / +5.0 % at 0.0022 and chatters at
+#: 0.0015 (drives saturated 43 % of the samples, c_mt x 7): 0.0031 with one step of margin. The
+#: swing leg angle, swing leg shape and torso raise c_mt by 11 / 8 / 25 % (eq. 42) and 7 / 7 / 15 %
+#: (decentralised) at their first stiffer value, EPS / 1.41, and by 20 % or more at the next:
+#: they keep EPS. (At a 5 % bound the decentralised form's +5.0 % at 0.0022 sits on the bound:
+#: 10 % keeps every decision one that a run-to-run change of a few tenths of a percent cannot
+#: turn.) The stance leg-shape output is a motor angle on a loaded leg; the swing leg's motors
+#: and the torso's (through the stance leg-angle motor) excite the cables and the ground.
+EPS_OUTPUTS = (EPS_GRID[5], EPS, EPS, EPS)
 
 
 def default_gains(beta, bounds, signs, limit=None) -> Gains:
     """PD gains (tuned on the nominal gait: stable Poincaré map, small tracking error) and the
-    eq. 42 gains eps = :data:`EPS`, Kp = 1, Kd = 2 (a double pole at -1/eps)."""
+    eq. 42 gains eps = :data:`EPS_OUTPUTS` (per output), Kp = 1, Kd = 2 (a double pole at -1/eps
+    on each output)."""
     f = lambda v: jnp.asarray(v, float)  # noqa: E731
     lim = f([30.0, 55.0, 30.0, 55.0] if limit is None else limit)
-    return Gains(kp=f([3.5, 45.0, 3.5, 60.0]), kd=f([0.05, 1.2, 0.05, 3.0]), eps=f(EPS), kp_io=f(1.0),
+    return Gains(kp=f([3.5, 45.0, 3.5, 60.0]), kd=f([0.05, 1.2, 0.05, 3.0]), eps=f(EPS_OUTPUTS), kp_io=f(1.0),
                  kd_io=f(2.0), beta=f(beta), beta_bounds=f(bounds), signs=f(signs), limit=lim)

@@ -40,6 +40,8 @@ import numpy as np
 
 from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import catalog
+from bipedlab.robots.mabel.walking import controllers as ctl
+from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking import loop as sw
 from bipedlab.robots.mabel.walking.loop import MU as MU_TOE
@@ -168,17 +170,19 @@ def _push_row(r, controller, force, push_step, ref, direction):
 
 
 def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progress=None, tol=SEARCH_TOL,
-                max_walks=SEARCH_WALKS):
+                max_walks=SEARCH_WALKS, plant="stance"):
     """The force (N, + forward) over the second half of step ``push_step`` whose peak speed
-    change is ``target`` (fraction of ``ref``) under ``controller``, by :func:`bracket_force`
-    on walks of the pushed step and SEARCH_AFTER more (a walk that falls counts as beyond the
-    target unless the steps it completed already reached it); then one walk of ``steps`` at
-    that force for the recovery. Returns the search record."""
+    change is ``target`` (fraction of ``ref``) under ``controller`` on ``plant``, by
+    :func:`bracket_force` on walks of the pushed step and SEARCH_AFTER more (a walk that falls
+    counts as beyond the target unless the steps it completed already reached it); then one
+    walk of ``steps`` at that force for the recovery (``steps_to_recover_5pct``, and
+    ``steps_to_recover``: first back within 2 %, as the rows at the paper's forces). Returns the
+    search record."""
     direction = np.sign(target)
     seen = {}
 
     def change_of(force):
-        r = _walk(GAIT, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step))
+        r = _walk(GAIT, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step), plant=plant)
         c = peak_change(r["speed_per_step"], push_step, ref, direction)
         seen[float(force)] = (c, r["fell"], r["steps_completed"])
         # a walk that falls short of the target before its fall tells nothing of the change the
@@ -186,15 +190,16 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
         return None if r["fell"] and (c is None or abs(c - target) > tol) else c
 
     force, change, walks, ok = bracket_force(change_of, target, f0, tol, max_walks)
-    r = _walk(GAIT, controller, steps, progress, push=(force, push_step))
+    r = _walk(GAIT, controller, steps, progress, push=(force, push_step), plant=plant)
     row = _push_row(r, controller, force, push_step, ref, direction)
+    row["steps_to_recover"] = None if r["fell"] else _recovery(r["speed_per_step"], push_step, ref)[1]
     return dict(target_change=target, converged=ok, tolerance=tol, walks=[
         dict(force_n=f, speed_change=seen[f][0], fell=seen[f][1], steps_completed=seen[f][2]) for f, _ in walks],
         **row)
 
 
 def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decentralized"), search=True,
-         reference_from=5):
+         reference_from=5, full_plant=True):
     """Exp. 2. The forces that change the speed by TARGET_CHANGES (+45 % / -45 %, as the paper's
     pushes did on the robot) over the second half of step PUSH_STEP, searched from the paper's
     estimates under PD + feedforward, the experiment's controller (``force_for_plus_45pct_n``,
@@ -211,10 +216,16 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     (:func:`~bipedlab.robots.mabel.walking.loop.fell`). Making the foot slip is outside this
     model. A run that falls keeps the speed change of the steps it completed.
 
+    With ``search`` and ``full_plant``, the same two searches under PD + feedforward on the
+    13-DoF plant (:mod:`.full_plant`: cable stretch, the compliant ground on which the toe can
+    slip or lift), the robot's analog (``full_plant``: its unpushed speed, the forces, each
+    search's record).
+
     Reductions: ``push_step``, the pushed step; ``controllers``, a subset of PD + FF and the
     decentralised controller; ``search`` False leaves out the force searches (the record then
     has no ``force_for_*`` keys); ``reference_from``, the first step of the unpushed speed's
-    mean. The searches need both controllers."""
+    mean; ``full_plant`` False leaves out the 13-DoF searches. The searches need both
+    controllers."""
     if search and set(controllers) != {"pdff", "decentralized"}:
         raise ValueError("push: the force searches walk both PD + feedforward and the decentralised controller")
     steps = steps or 30
@@ -256,7 +267,25 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     rec.update(force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],
                speed_change_at_plus_force=plus["speed_change"], speed_change_at_minus_force=minus["speed_change"],
                searches=searches, at_pdff_forces=at_pdff)
+    if full_plant:
+        rec["full_plant"] = push_full_plant(steps, push_step, reference_from, progress)
     return rec
+
+
+def push_full_plant(steps, push_step=PUSH_STEP, reference_from=5, progress=None) -> dict:
+    """Exp. 2 on the 13-DoF plant under PD + feedforward: the unpushed speed (mean over steps
+    ``reference_from`` on of a ``steps`` walk), and the forces that change it by TARGET_CHANGES,
+    searched from the stance model's estimates PUSHES, each with its recovery."""
+    base = _walk(GAIT, "pdff", steps, progress, plant="full")
+    ref = float(np.mean(base["speed_per_step"][reference_from:]))
+    say = progress or (lambda msg: None)
+    searches = []
+    for target, f0 in zip(TARGET_CHANGES, PUSHES):
+        say(f"push: searching the force for {100 * target:+.0f} % under pdff on the 13-DoF plant")
+        searches.append(search_push("pdff", target, f0, ref, steps, push_step, progress, plant="full"))
+    plus, minus = searches
+    return dict(controller="pdff", unpushed_speed_mps=ref, unpushed_fell=base["fell"],
+                force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"], searches=searches)
 
 
 #: Exp. 3's gait: the c_mt gait of the paper's design model. The full-model ``efficient`` gait
@@ -625,6 +654,13 @@ HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mp
 #: the exact rates)
 VARIANT_SENSING = "observer"
 GROUND_SCALES = (1.0, 10.0)
+#: the cable variant: CABLE_GAIT under the three controllers on the encoders with the 13-DoF
+#: plant's cables CABLE_SCALE times stiffer and more damped than the identified ones (the
+#: controllers' stance model has rigid cables; measured, 30 steps on the encoders: with the
+#: identified cables eq. 42 falls on nominal in step 2, its stance leg-shape cable stretched 87
+#: deg on the motor side; ten times stiffer, it walks, 17 deg)
+CABLE_GAIT = "nominal"
+CABLE_SCALE = 10.0
 FACTOR_SENSING = ("encoders", "observer", "ideal")
 FACTOR_GAIT = HEADLINE_JUDGED
 
@@ -642,6 +678,57 @@ def _headline_run(x: dict) -> dict:
     return dict({k: x[k] for k in HEADLINE_KEYS}, **_joint_side(x))
 
 
+#: walk length of :func:`eps_selection` (steps after the gait's fixed point)
+EPS_STEPS = 30
+
+
+def eps_selection(gait=HEADLINE_JUDGED, steps=EPS_STEPS, controllers=HEADLINE_CONTROLLERS, progress=None) -> dict:
+    """How eq. 42's eps per output (:data:`~.controllers.EPS_OUTPUTS`) is chosen: on the 13-DoF
+    plant, encoders at 1 kHz, ``gait``, each controller of ``controllers`` first walks with
+    every output at ``EPS``; then each output in turn takes the next stiffer value of
+    ``EPS_GRID`` (the others at EPS) until the walk falls or its c_mt rises more than
+    ``EPS_CMT_RISE`` over the walk at EPS. An output's choice is the stiffest value that met the
+    bound with ``EPS_MARGIN`` stiffer values also meeting it (EPS where none did), the softer of
+    the controllers' choices. The record keeps every walk (eps, c_mt and its rise, fall, the
+    tracking rms of the four outputs, the largest saturated fraction), PD + feedforward's walk
+    of the same length (``pdff``), each controller's choice (``chosen_index``), the chosen eps
+    (``eps``) and whether it is the shipped one (``shipped``)."""
+    vc, gains, rec = wm.load_gait(gait)
+    grid, base_eps = ctl.EPS_GRID, ctl.EPS
+
+    def walk(c, eps):
+        if progress:
+            progress(f"eps selection: {gait} under {c}, eps {', '.join(f'{e:.4f}' for e in eps)}")
+        r = wm.walk(gait, c, steps, plant="full", loaded=(vc, gains.replace(eps=jnp.asarray(eps, float)), rec))
+        return dict(fell=r["fell"], steps_completed=r["steps_completed"], cmt=r["cmt"],
+                    tracking_rms_deg=r["tracking_rms_deg"],
+                    saturation_max=max(r["saturation_fraction"].values()))
+
+    out = dict(gait=gait, steps=steps, grid=list(grid), cmt_rise=ctl.EPS_CMT_RISE, margin=ctl.EPS_MARGIN,
+               outputs=list(vcm.OUTPUTS), pdff=walk("pdff", [base_eps] * 4), base={}, trials={}, chosen_index={})
+    for c in controllers:
+        base = out["base"][c] = walk(c, [base_eps] * 4)
+        out["trials"][c], out["chosen_index"][c] = [], []
+        for i in range(4):
+            rows, met = [], 0
+            for k in range(1, len(grid)):
+                eps = [base_eps] * 4
+                eps[i] = grid[k]
+                x = walk(c, eps)
+                rise = None if x["fell"] or base["cmt"] is None else x["cmt"] / base["cmt"] - 1.0
+                ok = rise is not None and rise <= ctl.EPS_CMT_RISE
+                rows.append(dict(x, index=k, eps=grid[k], cmt_rise=rise, met=ok))
+                if not ok:
+                    break
+                met = k
+            out["trials"][c].append(rows)
+            out["chosen_index"][c].append(max(met - ctl.EPS_MARGIN, 0))
+    chosen = [min(out["chosen_index"][c][i] for c in controllers) for i in range(4)]
+    out["eps"] = [grid[k] for k in chosen]
+    out["shipped"] = bool(np.allclose(out["eps"], ctl.EPS_OUTPUTS, rtol=1e-12, atol=0.0))
+    return out
+
+
 def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, variants=True):
     """The design-to-robot gap (Sections V-A, V-C, VI-C): each gait under PD + feedforward on
     encoders at 1 kHz on the 13-DoF plant (:mod:`.full_plant`), beside its designed c_mt; Fig.
@@ -652,7 +739,10 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
     that trace the headline's figures: the same runs with the velocity observer
     (``hzd_runs_observer``), and FACTOR_GAIT under PD + feedforward and eq. 42 on each ground
     of GROUND_SCALES with each rate estimate of FACTOR_SENSING
-    (``factor_runs[scale][sensing][controller]``; the runs above are not walked again)."""
+    (``factor_runs[scale][sensing][controller]``; the runs above are not walked again), CABLE_GAIT
+    under the three controllers with the cables CABLE_SCALE times stiffer (``cable_runs``), and
+    :func:`eps_selection` (``eps_selection``), whose walks at one eps on every output are the
+    headline's figures before eq. 42's eps was chosen per output."""
     runs, hzd = {}, {}
     n = steps or 100
 
@@ -679,6 +769,10 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
             x = (done.get((sensing, k)) or {}).get(c)
             return x if x is not None else _headline_run(walk(FACTOR_GAIT, c, sensing=sensing, ground=k))
 
+        r["cable_gait"], r["cable_scale"] = CABLE_GAIT, CABLE_SCALE
+        r["cable_runs"] = {c: _headline_run(walk(CABLE_GAIT, c, cable=CABLE_SCALE))
+                           for c in ("pdff",) + HEADLINE_CONTROLLERS}
+        r["eps_selection"] = eps_selection(progress=progress)
         r["factor_gait"] = FACTOR_GAIT
         r["factor_runs"] = {f"{k:g}": {sn: {c: cell(sn, k, c) for c in ("pdff", "iolin")} for sn in FACTOR_SENSING}
                             for k in GROUND_SCALES}

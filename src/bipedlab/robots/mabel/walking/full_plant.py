@@ -110,11 +110,12 @@ def actuator_torques(u, stance):
 
 
 def grounded(m: mm.Mabel, setup: sw.Setup) -> mm.Mabel:
-    """The plant ``m`` with its ground's stiffness and damping scaled by ``setup.ground`` (data of
-    the compiled loop: one program for every scale)."""
-    g, k = m.ground, setup.ground
+    """The plant ``m`` with its ground's stiffness and damping scaled by ``setup.ground`` and its
+    cables' by ``setup.cable`` (data of the compiled loop: one program for every scale)."""
+    g, k, c, d = m.ground, setup.ground, setup.cable, m.drive
     return m.replace(ground=g.replace(stiffness=k * g.stiffness, damping_in=k * g.damping_in,
-                                      damping_out=k * g.damping_out))
+                                      damping_out=k * g.damping_out),
+                     drive=d.replace(cable_k=c * d.cable_k, cable_d=c * d.cable_d))
 
 
 def sensor(setup: sw.Setup, last_step, p: Plant, t):

@@ -81,7 +81,8 @@ class Setup:
     ``push_start`` nominal periods into its step (0.5: the second half, as Exp. 2); ``ground``
     scales the compliant ground's stiffness and damping on the 13-DoF plant (:mod:`.full_plant`;
     1.0: ``tables.GROUND``, the hopping-identified ground; the stance plant pins its toe and
-    ignores it)."""
+    ignores it); ``cable`` likewise scales the 13-DoF plant's cable stiffness and damping (1.0:
+    the identified cables; the stance plant's cables are rigid)."""
 
     vc: vcm.Constraints
     gains: ctl.Gains
@@ -95,6 +96,7 @@ class Setup:
     observer: jax.Array = 0.0
     push_start: jax.Array = 0.5
     ground: jax.Array = 1.0
+    cable: jax.Array = 1.0
 
 
 @pytree
