@@ -213,7 +213,7 @@ def test_the_ground_scale_multiplies_the_contact_force_and_only_the_full_plant_t
         wm.walk("paper-nominal", "pdff", 1, plant="full", ground=-1.0)
 
 
-def test_the_cable_scale_multiplies_the_cable_constants_and_only_the_full_plant_takes_it():
+def test_the_cable_and_friction_scales_multiply_their_constants_and_only_the_full_plant_takes_them():
     """``Setup.cable`` scales the 13-DoF plant's cable stiffness and damping together (data of the
     compiled loop, as the ground's scale), leaves the ground and everything else of the drive as
     identified, and scale 1 is the identified plant. The stance plant's cables are rigid: it
@@ -227,7 +227,31 @@ def test_the_cable_scale_multiplies_the_cable_constants_and_only_the_full_plant_
     np.testing.assert_allclose(np.asarray(ten.drive.cable_d), 10.0 * np.asarray(m.drive.cable_d), rtol=1e-15)
     np.testing.assert_array_equal(np.asarray(ten.drive.spring_k), np.asarray(m.drive.spring_k))
     np.testing.assert_array_equal(np.asarray(ten.ground.stiffness), np.asarray(m.ground.stiffness))
+    np.testing.assert_array_equal(np.asarray(ten.drive.friction), np.asarray(m.drive.friction))
+    two = fp.grounded(m, wm.setup_for(vc, gains, 0.5, friction=2.0))  # Table V's motor friction doubled
+    np.testing.assert_allclose(np.asarray(two.drive.friction), 2.0 * np.asarray(m.drive.friction), rtol=1e-15)
+    np.testing.assert_array_equal(np.asarray(two.drive.cable_k), np.asarray(m.drive.cable_k))
+    with pytest.raises(ValueError, match="motor friction can be scaled"):
+        wm.walk("paper-nominal", "pdff", 1, friction=2.0)
     with pytest.raises(ValueError, match="only the full plant has cables"):
         wm.walk("paper-nominal", "pdff", 1, cable=10.0)
     with pytest.raises(ValueError, match="cable scale must be a positive"):
         wm.walk("paper-nominal", "pdff", 1, plant="full", cable=0.0)
+
+
+def test_the_torque_noise_is_the_rms_sample_to_sample_change_over_the_completed_steps():
+    """gap_record's torque_noise_rms_nm: per motor, the rms of u[k+1] - u[k] over the samples up to
+    the last completed step's end (a motor whose torque alternates +-a has noise 2a; a constant
+    one, 0; samples after the last touchdown are not counted)."""
+    n = 12
+    touched = np.zeros(n, bool)
+    touched[[3, 7]] = True
+    u = np.zeros((n, 4))
+    u[:, 0] = 1.5 * (-1.0) ** np.arange(n)
+    u[:, 1] = 4.0
+    u[8:, 2] = 100.0  # after the last completed step: not counted
+    log = dict(step=np.cumsum(touched), touched=touched, stance=np.zeros(n, int), bsp_st=np.zeros(n),
+               bsp_sw=np.zeros(n), toe_drift=np.zeros(n), grf=np.ones((n, 2)), stretch=np.zeros((n, 4)), u=u)
+    r = fp.gap_record(log, [0.8, 0.8])
+    noise = r["torque_noise_rms_nm"]
+    assert noise["mLA_st"] == pytest.approx(3.0) and noise["mLS_st"] == 0.0 and noise["mLA_sw"] == 0.0

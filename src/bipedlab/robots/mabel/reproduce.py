@@ -16,6 +16,7 @@ from pathlib import Path
 import numpy as np
 
 from bipedlab.report import Experiment, Failed, Figure, Measured, NotIdentifiable, Paper, Skip, dig
+from bipedlab.robots.mabel import tables as tb
 from bipedlab.robots.mabel.walking import catalog
 
 DATA = Path(__file__).parent / "data"
@@ -410,6 +411,8 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     skip = Skip(NOT_QUICK) if quick else Skip("not run")
     out["exp1_speed_mps"] = dig(nom, "speed_mps") if nom else skip
     out["exp1_cmt"] = dig(nom, "cmt") if nom else skip
+    out["exp1_vs_hand_designed_cmt"] = Skip("the hand-designed virtual constraints of (Grizzle et al., 2009) are given in "
+                                            "neither paper, so their gait cannot be walked here")
     push = records.get("push")
     if push:
         runs = {(r["controller"], r["force_n"]): r for r in push["runs"]}
@@ -556,7 +559,7 @@ def _headline(fp, quick: bool, out: dict) -> None:
     ids = ("fullplant_exp4_mls_st_rms_ratio", "fullplant_exp4_tor_rms_ratio", "fullplant_hzd_steps")
     if not hzd:
         out.update({i: Skip("experiment full-plant was not run, or ran without the headline walks")
-                    for i in ids + ("fullplant_one_eps_mls_st_rms_ratio",)})
+                    for i in ids + ("fullplant_one_eps_mls_st_rms_ratio",) + MORE_ROWS})
         return
     judged = fp.get("judged_gait", "paper-nominal")
     pd, io = hzd[judged]["pdff"], hzd[judged]["iolin"]
@@ -580,6 +583,68 @@ def _headline(fp, quick: bool, out: dict) -> None:
         out[ids[2]] = Measured(least, dict(which=which, cable=_cable_text(fp)))
     _headline_variants(fp, out)
     _one_eps(fp.get("eps_selection"), out)
+    out.update(_headline_more(fp))
+
+
+#: the walking controllers' torques, in the order of a walk record's peak_torques_nm
+ACTUATOR_NAMES = ("mLA_st", "mLS_st", "mLA_sw", "mLS_sw")
+#: the headline block's further rows (Sec. V-D, V-E, VI-A, VI-C): :func:`_headline_more`
+MORE_ROWS = ("fullplant_joint_rms_pdff", "fullplant_joint_rms_hzd", "fullplant_joint_peak_pdff", "fullplant_joint_peak_hzd",
+             "fullplant_decentralized_tracking", "fullplant_torque_noise_hzd_over_pd",
+             "fullplant_torque_noise_hzd_over_decentralized", "fullplant_torque_peaks", "fullplant_stance_speed_ratio",
+             "fullplant_cable_cmt_rise", "fullplant_friction_cmt_rise")
+
+
+def _noise(x) -> float:
+    """A walk's torque noise over its four motors: the rms of the per-motor rms changes."""
+    v = np.asarray(list(x["torque_noise_rms_nm"].values()), float)
+    return float(np.sqrt(np.mean(v ** 2)))
+
+
+def _headline_more(fp: dict) -> dict:
+    """The judged gait's headline runs read further: the stance leg shape's joint-side rms and
+    peak under PD + feedforward and eq. 42 (Sec. V-D), the decentralised controller's tracking
+    against eq. 42's, the torque noise of eq. 42 against PD + feedforward and against the
+    decentralised form, the peak torques against the capacities, PD + feedforward's left- and
+    right-stance speeds (Sec. VI-A), and c_mt's rise with the cables' stretch and with the
+    motor friction (Sec. VI-C, the variant runs ``cmt_factor_runs``)."""
+    g = fp.get("judged_gait", "paper-nominal")
+    by = fp["hzd_runs"][g]
+    pd, io, dc = by["pdff"], by["iolin"], by["decentralized"]
+    out = {}
+    fallen = [c for c, x in by.items() if x["fell"]]
+    if fallen:
+        why = Failed(f"{', '.join(fallen)} fell on the 13-DoF plant ({g}): a fallen run has no steady figures")
+        out.update({k: why for k in MORE_ROWS[:9]})
+    else:
+        for rid, x, kind in ((MORE_ROWS[0], pd, "rms"), (MORE_ROWS[1], io, "rms"), (MORE_ROWS[2], pd, "peak"),
+                             (MORE_ROWS[3], io, "peak")):
+            out[rid] = Measured(x[f"mLS_st_{kind}_joint_deg"], dict(motor=x[f"tracking_{kind}_deg"]["mLS_st"]))
+        out[MORE_ROWS[4]] = Measured(dc["tracking_rms_deg"]["mLS_st"] / io["tracking_rms_deg"]["mLS_st"],
+                                     dict(decentralized=dc["tracking_rms_deg"]["mLS_st"], hzd=io["tracking_rms_deg"]["mLS_st"],
+                                          tor_decentralized=dc["tracking_rms_deg"]["Tor"], tor_hzd=io["tracking_rms_deg"]["Tor"]))
+        out[MORE_ROWS[5]] = Measured(_noise(io) / _noise(pd), dict(hzd=_noise(io), pdff=_noise(pd)))
+        out[MORE_ROWS[6]] = Measured(_noise(io) / _noise(dc), dict(hzd=_noise(io), decentralized=_noise(dc)))
+        cap = np.asarray([tb.TORQUE_CAPACITY[a[:3]] for a in ACTUATOR_NAMES], float)
+        ratio = {c: np.abs(np.asarray(x["peak_torques_nm"], float)) / cap for c, x in by.items()}
+        out[MORE_ROWS[7]] = Measured(float(max(r.max() for r in ratio.values())), dict(peaks="; ".join(
+            f"{c}: " + ", ".join(f"{a} {t:.1f} N m" for a, t in zip(ACTUATOR_NAMES, by[c]["peak_torques_nm"]))
+            for c in by)))
+        left, right = pd["speed_left_stance_mps"], pd["speed_right_stance_mps"]
+        out[MORE_ROWS[8]] = (Measured(left / right, dict(left=left, right=right)) if left and right
+                             else Failed("PD + feedforward's walk has no step on one of the legs"))
+    runs = fp.get("cmt_factor_runs")
+    if not runs:
+        out.update({k: Skip("the --quick run walks no c_mt variants") for k in MORE_ROWS[9:]})
+        return out
+    for rid, x, key in ((MORE_ROWS[9], runs["cables"], "cables"), (MORE_ROWS[10], runs["friction"], "friction")):
+        if x["fell"] or pd["fell"]:
+            out[rid] = Failed(f"a walk fell ({key} variant or the identified plant's): a fallen run has no c_mt")
+        elif key == "cables":
+            out[rid] = Measured(pd["cmt"] / x["cmt"] - 1.0, dict(identified=pd["cmt"], stiff=x["cmt"]))
+        else:
+            out[rid] = Measured(x["cmt"] / pd["cmt"] - 1.0, dict(identified=pd["cmt"], doubled=x["cmt"]))
+    return out
 
 
 def _one_eps(sel, out: dict) -> None:

@@ -641,7 +641,7 @@ HEADLINE_CONTROLLERS = ("iolin", "decentralized")
 HEADLINE_KEYS = ("controller", "fell", "fell_at_s", "steps_completed", "speed_mps", "designed_speed_mps", "cmt",
                  "tracking_rms_deg", "tracking_peak_deg", "peak_torques_nm", "toe_pulled", "min_normal_force_n",
                  "saturation_fraction", "first_saturation_s", "rate_estimate_error_rms", "cable_stretch_rms_deg",
-                 "cable_stretch_peak_deg")
+                 "cable_stretch_peak_deg", "speed_left_stance_mps", "speed_right_stance_mps", "torque_noise_rms_nm")
 
 
 #: the headline's labelled variants on the 13-DoF plant, neither the paper's setup: they trace
@@ -661,6 +661,11 @@ GROUND_SCALES = (1.0, 10.0)
 #: deg on the motor side; ten times stiffer, it walks, 17 deg)
 CABLE_GAIT = "nominal"
 CABLE_SCALE = 10.0
+#: Sec. VI-C: "both friction and cable stretch contribute significantly to increase" c_mt. Exp.
+#: 1's walk (HEADLINE_JUDGED, PD + feedforward, encoders) again with the cables CABLE_SCALE times
+#: stiffer (nearly the stance model's rigid cables) and with the motors' viscous friction
+#: FRICTION_SCALE times Table V's, beside the identified plant's headline run
+FRICTION_SCALE = 2.0
 FACTOR_SENSING = ("encoders", "observer", "ideal")
 FACTOR_GAIT = HEADLINE_JUDGED
 
@@ -740,7 +745,9 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
     (``hzd_runs_observer``), and FACTOR_GAIT under PD + feedforward and eq. 42 on each ground
     of GROUND_SCALES with each rate estimate of FACTOR_SENSING
     (``factor_runs[scale][sensing][controller]``; the runs above are not walked again), CABLE_GAIT
-    under the three controllers with the cables CABLE_SCALE times stiffer (``cable_runs``), and
+    under the three controllers with the cables CABLE_SCALE times stiffer (``cable_runs``), Exp.
+    1's walk with those cables and with FRICTION_SCALE times the motor friction
+    (``cmt_factor_runs``: ``cables``, ``friction``), and
     :func:`eps_selection` (``eps_selection``), whose walks at one eps on every output are the
     headline's figures before eq. 42's eps was chosen per output."""
     runs, hzd = {}, {}
@@ -772,6 +779,9 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
         r["cable_gait"], r["cable_scale"] = CABLE_GAIT, CABLE_SCALE
         r["cable_runs"] = {c: _headline_run(walk(CABLE_GAIT, c, cable=CABLE_SCALE))
                            for c in ("pdff",) + HEADLINE_CONTROLLERS}
+        r["cmt_factor_gait"], r["friction_scale"] = HEADLINE_JUDGED, FRICTION_SCALE
+        r["cmt_factor_runs"] = dict(cables=_headline_run(walk(HEADLINE_JUDGED, "pdff", cable=CABLE_SCALE)),
+                                    friction=_headline_run(walk(HEADLINE_JUDGED, "pdff", friction=FRICTION_SCALE)))
         r["eps_selection"] = eps_selection(progress=progress)
         r["factor_gait"] = FACTOR_GAIT
         r["factor_runs"] = {f"{k:g}": {sn: {c: cell(sn, k, c) for c in ("pdff", "iolin")} for sn in FACTOR_SENSING}

@@ -110,12 +110,14 @@ def actuator_torques(u, stance):
 
 
 def grounded(m: mm.Mabel, setup: sw.Setup) -> mm.Mabel:
-    """The plant ``m`` with its ground's stiffness and damping scaled by ``setup.ground`` and its
-    cables' by ``setup.cable`` (data of the compiled loop: one program for every scale)."""
+    """The plant ``m`` with its ground's stiffness and damping scaled by ``setup.ground``, its
+    cables' by ``setup.cable`` and its motors' viscous friction by ``setup.friction`` (data of the
+    compiled loop: one program for every scale)."""
     g, k, c, d = m.ground, setup.ground, setup.cable, m.drive
     return m.replace(ground=g.replace(stiffness=k * g.stiffness, damping_in=k * g.damping_in,
                                       damping_out=k * g.damping_out),
-                     drive=d.replace(cable_k=c * d.cable_k, cable_d=c * d.cable_d))
+                     drive=d.replace(cable_k=c * d.cable_k, cable_d=c * d.cable_d,
+                                     friction=setup.friction * d.friction))
 
 
 def sensor(setup: sw.Setup, last_step, p: Plant, t):
@@ -250,17 +252,19 @@ def gap_record(log, speed_per_step) -> dict:
     speed per completed step, :func:`.study.metrics`) with each leg in stance (the alternation
     a period-two gait shows); the rms and peak cable stretch of each motor's cable (motor side,
     deg; :func:`cable_stretch`), which a controller with the stance model's rigid cables does
-    not see."""
+    not see; and the rms of the torque's change from sample to sample per motor (N m), how noisy
+    the controller's torques are (Sec. V-D, V-E)."""
     spans = steps_of(log)
     end = spans[-1][1] if spans else len(np.asarray(log["step"]))
     if not end:
         return dict(stance_spring_peak_deg=None, swing_spring_peak_deg=None, max_toe_drift_m=None,
                     stance_toe_airborne_fraction=None, speed_left_stance_mps=None, speed_right_stance_mps=None,
-                    cable_stretch_rms_deg=None, cable_stretch_peak_deg=None)
+                    cable_stretch_rms_deg=None, cable_stretch_peak_deg=None, torque_noise_rms_nm=None)
     side = np.asarray(log["stance"])[[a for a, _ in spans]]
     speeds = np.asarray(speed_per_step, float)[: len(spans)]
     mean = lambda v: float(np.mean(v)) if v.size else None  # noqa: E731
     stretch = np.asarray(log["stretch"], float)[:end]
+    u = np.asarray(log["u"], float)[:end]
     return dict(
         stance_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_st"])[:end]))),
         swing_spring_peak_deg=float(np.degrees(np.max(np.asarray(log["bsp_sw"])[:end]))),
@@ -268,4 +272,5 @@ def gap_record(log, speed_per_step) -> dict:
         stance_toe_airborne_fraction=float(np.mean(np.asarray(log["grf"])[:end, 1] <= 0.0)),
         speed_left_stance_mps=mean(speeds[side == 0]), speed_right_stance_mps=mean(speeds[side == 1]),
         cable_stretch_rms_deg=dict(zip(sw.ACTUATORS, np.degrees(np.sqrt(np.mean(stretch**2, 0))).tolist())),
-        cable_stretch_peak_deg=dict(zip(sw.ACTUATORS, np.degrees(np.max(np.abs(stretch), 0)).tolist())))
+        cable_stretch_peak_deg=dict(zip(sw.ACTUATORS, np.degrees(np.max(np.abs(stretch), 0)).tolist())),
+        torque_noise_rms_nm=dict(zip(sw.ACTUATORS, np.sqrt(np.mean(np.diff(u, axis=0) ** 2, 0)).tolist())))

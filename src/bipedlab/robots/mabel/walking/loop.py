@@ -82,7 +82,8 @@ class Setup:
     scales the compliant ground's stiffness and damping on the 13-DoF plant (:mod:`.full_plant`;
     1.0: ``tables.GROUND``, the hopping-identified ground; the stance plant pins its toe and
     ignores it); ``cable`` likewise scales the 13-DoF plant's cable stiffness and damping (1.0:
-    the identified cables; the stance plant's cables are rigid)."""
+    the identified cables; the stance plant's cables are rigid) and ``friction`` its motors'
+    viscous friction (1.0: Table V's; the stance plant keeps Table V's)."""
 
     vc: vcm.Constraints
     gains: ctl.Gains
@@ -97,6 +98,7 @@ class Setup:
     push_start: jax.Array = 0.5
     ground: jax.Array = 1.0
     cable: jax.Array = 1.0
+    friction: jax.Array = 1.0
 
 
 @pytree

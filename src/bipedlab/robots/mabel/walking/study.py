@@ -285,19 +285,19 @@ def parse_push(text: str | None):
 
 
 def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", lean=0.0, lean_steps=1,
-              ground=1.0, cable=1.0) -> sw.Setup:
+              ground=1.0, cable=1.0, friction=1.0) -> sw.Setup:
     if sensing not in SENSING:
         raise ValueError(f"sensing must be one of {', '.join(SENSING)}, got {sensing!r}")
     f = lambda v: jnp.asarray(v, float)  # noqa: E731
     return sw.Setup(vc=vc, gains=gains, eta=f(eta), push_force=f(push[0]), push_step=jnp.asarray(push[1]),
                     period=f(period), quantised=f(0.0 if sensing == "ideal" else 1.0), lean=f(lean),
                     lean_steps=jnp.asarray(int(lean_steps)), observer=f(1.0 if sensing == "observer" else 0.0),
-                    ground=f(ground), cable=f(cable))
+                    ground=f(ground), cable=f(cable), friction=f(friction))
 
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
              progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance", torque_limits=None,
-             loaded=None, ground: float = 1.0, cable: float = 1.0):
+             loaded=None, ground: float = 1.0, cable: float = 1.0, friction: float = 1.0):
     """Simulate; returns (final loop state, logs, gait record). ``push``: (force N, step index),
     step -1 for none. On the ``full`` plant there is no impact map to scale (the ground's
     compliance makes the impact). ``torque_limits`` (N m, actuator order): the controller's
@@ -305,7 +305,8 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
     program). ``loaded``: what :func:`load_gait` returned for ``gait``, for a caller that has
     loaded it already (it is then not read again). ``ground``: the 13-DoF plant's ground stiffness
     and damping over the identified ground's (``tables.GROUND``); ``cable``: its cables' stiffness
-    and damping over the identified cables' (``tables.CABLE_K``, ``tables.CABLE_D``)."""
+    and damping over the identified cables' (``tables.CABLE_K``, ``tables.CABLE_D``); ``friction``:
+    its motors' viscous friction over Table V's."""
     if plant not in PLANTS:
         raise ValueError(f"plant must be one of {', '.join(PLANTS)}, got {plant!r}")
     if plant == "full" and eta != 1.0:
@@ -314,7 +315,9 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
         raise ValueError("only the full plant has a compliant ground to scale (the stance plant pins its toe)")
     if plant != "full" and cable != 1.0:
         raise ValueError("only the full plant has cables to scale (the stance plant's are rigid)")
-    for what, k in (("ground", ground), ("cable", cable)):
+    if plant != "full" and friction != 1.0:
+        raise ValueError("only the full plant's motor friction can be scaled")
+    for what, k in (("ground", ground), ("cable", cable), ("friction", friction)):
         if not (np.isfinite(k) and k > 0):
             raise ValueError(f"the {what} scale must be a positive number, got {k!r}")
     vc, gains, rec = load_gait(gait) if loaded is None else loaded
@@ -322,7 +325,7 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
         gains = gains.replace(limit=jnp.asarray(torque_limits, float))
     m = wk.walking_model()
     setup = setup_for(vc, gains, rec["design"]["period"], eta, push, sensing, np.radians(lean_deg), lean_steps, ground,
-                      cable)
+                      cable, friction)
     cb = None
     if progress is not None:
         last = [-1]
@@ -370,7 +373,7 @@ def metrics(s, log, limit) -> dict:
 
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
          out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance",
-         loaded=None, ground: float = 1.0, cable: float = 1.0) -> dict:
+         loaded=None, ground: float = 1.0, cable: float = 1.0, friction: float = 1.0) -> dict:
     """Closed-loop walk; ``push``: (force N, step index) of a horizontal push on the hip over the
     second half of that step (:func:`parse_push` reads 'FORCE@STEP'), or None; ``lean_deg`` leans
     the torso forward (swing leg's absolute angle kept) in ``lean_steps`` equal increments, one
@@ -379,11 +382,12 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
     ``cmt_designed``. ``loaded``: what :func:`load_gait` returned for ``gait``, if the caller has
     loaded it already. ``ground``: on the 13-DoF plant, its ground's stiffness and damping over
     the identified ground's (record key ``ground_scale``); ``cable``: its cables' stiffness and
-    damping over the identified cables' (record key ``cable_scale``)."""
+    damping over the identified cables' (record key ``cable_scale``); ``friction``: its motors'
+    viscous friction over Table V's (record key ``friction_scale``)."""
     force, step = (0.0, -1) if push is None else (float(push[0]), int(push[1]))
     loaded = load_gait(gait) if loaded is None else loaded
     s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps, plant,
-                           loaded=loaded, ground=ground, cable=cable)
+                           loaded=loaded, ground=ground, cable=cable, friction=friction)
     r = dict(robot="mabel", gait=gait, plant=plant, controller=controller, sensing=sensing, impact_scale=eta,
              torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
              push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log, loaded[1].limit))
@@ -399,7 +403,7 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
         # the compliant ground cannot pull: F_N = 0 there is the stance toe off the ground,
         # which stance_toe_airborne_fraction reports
         r.update(fp.gap_record(log, r["speed_per_step"]), toe_pulled=False, toe_pulled_step=None, ground_scale=ground,
-                 cable_scale=cable)
+                 cable_scale=cable, friction_scale=friction)
         # the gait's decision vector evaluated on the HZD paper's design model (no friction, no
         # spring damping, rigid cables): the designed c_mt the paper's ~3x gap is measured from
         paper = md.make_design(md.design_model(kind="paper"), np.asarray(rec["x"], float), rec["speed"])
