@@ -4,6 +4,7 @@ recoveries as report rows (the paper: about 78 N / 71 N, 10 steps back after the
 3 after the backward one)."""
 from __future__ import annotations
 
+import numpy as np
 import pytest
 
 from bipedlab.report import Failed, Measured, Skip, values
@@ -59,8 +60,6 @@ def test_the_13dof_search_reaches_its_target_on_the_plant_that_stands_for_the_ro
     changes the speed by -45 % within the search's tolerance, and the walk at that force
     survives."""
     base = wx._walk(wx.GAIT, "pdff", 14, None, plant="full")
-    import numpy as np
-
     ref = float(np.mean(base["speed_per_step"][5:]))
     x = wx.search_push("pdff", -0.45, -71.0, ref, 14, plant="full")
     assert x["converged"] and abs(x["speed_change"] + 0.45) <= wx.SEARCH_TOL
