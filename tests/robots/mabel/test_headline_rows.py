@@ -10,6 +10,8 @@ from bipedlab.robots.mabel import reproduce as R
 from bipedlab.robots.mabel.walking import experiments as wx
 
 IDS = ("fullplant_exp4_mls_st_rms_ratio", "fullplant_exp4_tor_rms_ratio", "fullplant_hzd_steps")
+#: the stand-in records' second headline gait: Exp. 3's
+EXP3 = wx.EXP3_GAIT
 
 
 def _run(mls, tor, steps=100, fell=False, noise=0.1, cmt=0.15):
@@ -27,12 +29,12 @@ VARIANTS = ("fullplant_observer_mls_st_rms_ratio", "fullplant_observer_hzd_steps
 def _records(io_fell=False, steps=100, variants=False):
     hzd = {"paper-nominal": dict(pdff=_run(6.8, 0.7), iolin=_run(2.5, 0.09, 1 if io_fell else steps, io_fell),
                                  decentralized=_run(2.4, 0.33, steps)),
-           "nominal": dict(pdff=_run(30.0, 0.8), iolin=_run(2.6, 0.06, 1, True), decentralized=_run(6.3, 0.2, steps))}
+           EXP3: dict(pdff=_run(30.0, 0.8), iolin=_run(2.6, 0.06, 1, True), decentralized=_run(6.3, 0.2, steps))}
     fp = dict(steps=steps, hzd_runs=hzd)
     if variants:
         fp["hzd_runs_observer"] = {
             "paper-nominal": dict(pdff=_run(6.9, 0.7), iolin=_run(2.3, 0.1), decentralized=_run(2.4, 0.3)),
-            "nominal": dict(pdff=_run(32.0, 0.8), iolin=_run(8.0, 0.2), decentralized=_run(8.1, 0.2, 90))}
+            EXP3: dict(pdff=_run(32.0, 0.8), iolin=_run(8.0, 0.2), decentralized=_run(8.1, 0.2, 90))}
         fp["factor_runs"] = {
             "1": dict(encoders=hzd["paper-nominal"], observer=fp["hzd_runs_observer"]["paper-nominal"],
                       ideal=dict(pdff=_run(6.7, 0.7), iolin=_run(2.2, 0.1))),
@@ -54,13 +56,13 @@ def test_ratios_are_pd_over_the_compliant_controller_with_their_figures():
     assert isinstance(m, Measured) and m.value == pytest.approx(6.8 / 2.5)
     assert m.facts["pdff"] == 6.8 and m.facts["hzd"] == 2.5 and m.facts["hzd_joint"] == pytest.approx(2.5 / 31.42)
     assert out[IDS[1]].value == pytest.approx(0.7 / 0.09)
-    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == "iolin on nominal"
+    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == f"iolin on {EXP3}"
 
 
 def test_a_fall_fails_the_ratios_and_names_the_run_in_the_steps_row():
     out = _rows(_records(io_fell=True))
     assert isinstance(out[IDS[0]], Failed) and "compliant controller fell" in out[IDS[0]].reason
-    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == "iolin on paper-nominal, iolin on nominal"
+    assert out[IDS[2]].value == 1 and out[IDS[2]].facts["which"] == f"iolin on paper-nominal, iolin on {EXP3}"
 
 
 def test_the_quick_run_cannot_judge_78_steps_and_a_missing_experiment_is_skipped():
@@ -80,7 +82,7 @@ def test_the_variants_trace_the_ratio_one_factor_at_a_time():
     obs, steps, ground, enc_steps = (out[i] for i in VARIANTS)
     assert obs.value == pytest.approx(6.9 / 2.3) and obs.facts["encoders"] == "2.7x"
     assert steps.value == 90 and steps.facts["which"] == "none" and steps.facts["encoders"] == 1
-    assert steps.facts["encoders_which"] == "iolin on nominal" and steps.facts["nominal_ratio"] == "4.0x"
+    assert steps.facts["encoders_which"] == f"iolin on {EXP3}" and steps.facts["exp3_ratio"] == "4.0x"
     assert ground.value == pytest.approx(7.9 / 0.46) and ground.facts["scale"] == 10.0
     assert ground.facts["identified"] == "3.0x"
     assert enc_steps.value == 26 and enc_steps.facts["ratio"] == "eq. 42 falls in step 27 (7.5x before)"
@@ -119,8 +121,8 @@ def test_the_judged_gait_is_the_records_and_the_rows_name_it():
     """The ratios are read on the gait the record names as judged (the experiment's
     HEADLINE_JUDGED, the gait closest to the paper's), and the rows name that gait."""
     records = _records()
-    records["full-plant"]["judged_gait"] = "nominal"
-    records["full-plant"]["hzd_runs"]["nominal"]["iolin"] = _run(2.6, 0.06)
+    records["full-plant"]["judged_gait"] = EXP3
+    records["full-plant"]["hzd_runs"][EXP3]["iolin"] = _run(2.6, 0.06)
     out = _rows(records)
     assert out[IDS[0]].value == pytest.approx(30.0 / 2.6) and out[IDS[1]].value == pytest.approx(0.8 / 0.06)
     rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
@@ -174,15 +176,17 @@ def test_the_one_eps_row_shows_the_ratio_before_the_per_output_choice_and_what_c
 
 def test_the_steps_row_says_what_the_stiffer_cables_do():
     """fullplant_hzd_steps carries the cable variant: each eq. 42 controller on the cable gait
-    with the identified cables (its headline run) and with the stiffer ones, steps walked and the
-    stance leg-shape cable's peak stretch; the departure text renders it."""
+    (not a headline gait) with the identified cables and with the stiffer ones, steps walked and
+    the stance leg-shape cable's peak stretch; the departure text and the agreement's text render
+    it."""
     records = _records()
     fp = records["full-plant"]
-    for by in fp["hzd_runs"].values():
-        for x in by.values():
-            x["cable_stretch_peak_deg"] = dict(mLS_st=87.0)
+    stretched = dict(mLS_st=87.0)
+    identified = dict(iolin=dict(_run(2.6, 0.06, 1, True), cable_stretch_peak_deg=stretched),
+                      decentralized=dict(_run(6.3, 0.2, 100), cable_stretch_peak_deg=stretched))
     walked = dict(_run(1.5, 0.2, 100), cable_stretch_peak_deg=dict(mLS_st=17.0))
-    fp.update(cable_gait="nominal", cable_scale=10.0, cable_runs=dict(pdff=walked, iolin=walked, decentralized=walked))
+    fp.update(cable_gait="nominal", cable_scale=10.0, cable_runs=dict(pdff=walked, iolin=walked, decentralized=walked),
+              cable_runs_identified=identified)
     m = _rows(records)[IDS[2]]
     assert m.facts["cable"].startswith("iolin on nominal: identified cables falls in step 2, stance leg-shape cable "
                                        "stretched 87 deg; cables x 10 walks 100 steps, stance leg-shape cable "
@@ -190,6 +194,8 @@ def test_the_steps_row_says_what_the_stiffer_cables_do():
     rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
     text = values.render(rows[IDS[2]]["departs_why"], dict(m.facts, value=m.value), IDS[2])
     assert "{" not in text and "cables x 10 walks 100 steps" in text
+    text = values.render(rows[IDS[2]]["tolerance"]["why"], dict(m.facts, value=m.value), IDS[2])
+    assert "{" not in text and "the full-model nominal gait under the same controllers: iolin on nominal" in text
     assert _rows(_records())[IDS[2]].facts["cable"] == "the cable variant was not run here"
 
 

@@ -23,7 +23,7 @@ def test_paper_eigenvalues_and_the_studies_gains():
     are those every walk loads with a shipped gait: controllers.default_gains, kp = (3.5, 45,
     3.5, 60) and kd = (0.05, 1.2, 0.05, 3.0) per output (mLS_st, LA_sw, mLS_sw, Tor), the same
     for both gaits (exact equality: the same constants)."""
-    assert wx.PD_PAPER == {"nominal": 0.6921, "efficient": 0.8194}
+    assert wx.PD_PAPER == {"paper-nominal": 0.6921, "paper-efficient": 0.8194} and tuple(wx.PD_PAPER) == wx.PD_GAITS
     d = ctl.default_gains(np.zeros((4, 4, 6)), np.zeros((4, 2)), np.ones(4))
     for gait in wx.PD_GAITS:
         _, g, _ = wm.load_gait(gait)
@@ -54,16 +54,16 @@ def test_closest_gains_are_chosen_by_the_distance_to_the_paper(monkeypatch):
 
     monkeypatch.setattr(mp, "pd_fixed_points", fake)
     r = wx.pd_gains(None, None, None, kp_scales=(0.5, 1.0, 2.0), kd_scales=(0.5, 1.0, 1.5))
-    pts = r["gains_grid"]["points"]["nominal"]
+    pts = r["gains_grid"]["points"]["paper-nominal"]
     p = next(x for x in pts if (x["kp_scale"], x["kd_scale"]) == (2.0, 1.5))
     assert p["kp"] == pytest.approx([7.0, 90.0, 7.0, 120.0]) and p["kd"] == pytest.approx([0.075, 1.8, 0.075, 4.5])
     assert p["dominant_eigenvalue"]["abs"] == pytest.approx(0.3)
     assert next(x for x in pts if (x["kp_scale"], x["kd_scale"]) == (0.5, 0.5))["dominant_eigenvalue"] is None
     c = r["closest_to_paper"]
-    assert (c["nominal"]["kp_scale"], c["nominal"]["kd_scale"]) == (1.0, 1.5)
-    assert c["nominal"]["dominant_eigenvalue"]["abs"] == pytest.approx(0.6)
-    assert (c["efficient"]["kp_scale"], c["efficient"]["kd_scale"]) == (1.0, 1.0)
-    assert r["studies_gains"]["nominal"]["dominant_eigenvalue"]["abs"] == pytest.approx(0.9)
+    assert (c["paper-nominal"]["kp_scale"], c["paper-nominal"]["kd_scale"]) == (1.0, 1.5)
+    assert c["paper-nominal"]["dominant_eigenvalue"]["abs"] == pytest.approx(0.6)
+    assert (c["paper-efficient"]["kp_scale"], c["paper-efficient"]["kd_scale"]) == (1.0, 1.0)
+    assert r["studies_gains"]["paper-nominal"]["dominant_eigenvalue"]["abs"] == pytest.approx(0.9)
 
 
 def test_batched_newton_finds_a_known_fixed_point_and_jacobian(monkeypatch):

@@ -14,6 +14,7 @@ ROBOT = "mabel"
 STEPS = int_in(1, 10_000)
 SPEED = float_in(0.1, 2.0)         # m/s; the designed gaits span 0.6-1.6
 STEP_LENGTH = float_in(0.2, 1.0)   # m; legs of 1 m, reached by continuation in 3 cm solves
+CLEARANCE = float_in(0.0, 0.2)     # m; the shipped gaits lift the swing toe 1.6-17 cm at most
 IMPACT_SCALE = float_in(0.5, 1.5)  # Table I spans 0.96-1
 LEAN = float_in(-45.0, 45.0)       # deg
 GROUND_SCALE = float_in(0.01, 100.0)  # the identified ground's stiffness and damping times this
@@ -43,6 +44,9 @@ def _optimize_arguments(p) -> None:
     p.add_argument("--speed", type=SPEED, default=0.8, help="walking speed, m/s")
     p.add_argument("--step-length", type=STEP_LENGTH, default=None, metavar="L",
                    help="prescribe the step length in m (e.g. 0.575, the paper's nominal gait)")
+    p.add_argument("--clearance", type=CLEARANCE, default=0.0, metavar="M",
+                   help="the swing toe at least M * 4 s (1 - s) above the ground along the step (s its fraction; "
+                        "M at mid-step); default 0, the paper's bound (above the ground)")
     p.add_argument("--cost", choices=catalog.COSTS, default="torque",
                    help="integral of squared torque per step length, or mechanical cost of transport")
     p.add_argument("--design-model", choices=catalog.DESIGN_MODELS, default="paper",
@@ -59,7 +63,8 @@ def _optimize(args, progress):
     from bipedlab.robots.mabel.walking import study as wm
 
     rec = wm.optimize(args.speed, args.cost, save=args.save, out=args.out, poincare_check=not args.no_poincare,
-                      progress=progress, step_length=args.step_length, design_model=args.design_model)
+                      progress=progress, step_length=args.step_length, design_model=args.design_model,
+                      clearance=args.clearance)
     return rec, wm.summary_optimize
 
 

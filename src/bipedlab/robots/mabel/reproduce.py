@@ -299,9 +299,23 @@ def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick
 #: ``experiments.EXP3_GAIT``, ``PD_GAITS``, ``GAP_GAITS``; written out here so that listing the
 #: papers imports no simulation code; a test holds them equal)
 _GAITS = {"design": ("paper-nominal", "paper-efficient"), "nominal": ("paper-575",), "push": ("paper-575",),
-          "efficient": ("paper-efficient",), "tracking": ("paper-575",), "impact-scaling": ("paper-575",),
-          "fast": ("paper-575", "fast"), "pd-gains": ("nominal", "efficient"), "exp4": ("paper-575",),
-          "full-plant": ("paper-nominal", "paper-efficient", "nominal", "efficient", "paper-575")}
+          "efficient": ("paper-efficient-clear",), "tracking": ("paper-575",), "impact-scaling": ("paper-575",),
+          "fast": ("paper-575", "fast"), "pd-gains": ("paper-nominal", "paper-efficient"), "exp4": ("paper-575",),
+          "full-plant": ("paper-nominal", "paper-efficient", "paper-efficient-clear", "nominal", "efficient",
+                         "paper-575")}
+
+#: Exp. 3's gait (``experiments.EXP3_GAIT``)
+EXP3_GAIT = _GAITS["efficient"][0]
+
+
+def _zero_clearance_text(gap: dict) -> str:
+    """How the c_mt gait without the swing-toe clearance (paper-efficient) fared under PD +
+    feedforward on the 13-DoF plant (experiment full-plant's runs)."""
+    x = gap.get("paper-efficient")
+    if x is None:
+        return "paper-efficient (no clearance) was not walked here"
+    how = f"falls in step {x['steps_completed'] + 1}" if x["fell"] else f"walks {x['steps_completed']} steps"
+    return f"without it (paper-efficient, the swing toe grazing the ground at mid-step) PD + feedforward {how}"
 
 
 HZD_EXPERIMENTS = (
@@ -336,9 +350,10 @@ HZD_EXPERIMENTS = (
               f"{QUICK_WALK_STEPS} steps instead of 30; no run without the 6/10 N m limits", 30, 5, _GAITS["exp4"],
               compare=False),
     _walk_exp("full-plant", "bipedlab experiment mabel full-plant", 100, QUICK_FULL_PLANT_STEPS,
-              f"the two gaits designed on the paper's design model only, {QUICK_FULL_PLANT_STEPS} steps each instead "
-              "of 100 (and not the full-model gaits); no variants of the headline (velocity observer, scaled ground)",
-              360, 10, _GAITS["full-plant"], gaits=["paper-nominal", "paper-efficient"], variants=False),
+              f"the paper model's torque gait and Exp. 3's gait only, {QUICK_FULL_PLANT_STEPS} steps each instead "
+              "of 100 (not paper-efficient or the full-model gaits); no variants of the headline (velocity observer, "
+              "scaled ground, cables, friction, eps selection)",
+              360, 10, _GAITS["full-plant"], gaits=["paper-nominal", "paper-efficient-clear"], variants=False),
 )
 
 ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
@@ -375,7 +390,8 @@ def gait_table(records: dict, quick: bool) -> list:
 
     out, papers = [], _paper_gaits()
     walked = {g for gs in _GAITS.values() for g in gs}
-    for name in (g for g in ("paper-nominal", "paper-efficient", "paper-575", "nominal", "efficient", "fast")
+    for name in (g for g in ("paper-nominal", "paper-efficient", "paper-efficient-clear", "paper-575", "nominal",
+                             "efficient", "fast")
                  if g in walked):
         _, _, d = wm.load_gait(name)
         des, model = d["design"], d.get("design_model", "full")
@@ -448,8 +464,8 @@ def measure_hzd(records: dict, quick: bool) -> dict:
     out["table1_dv_deta"] = (Failed("fewer than two etas walked without a fall") if imp and dig(imp, "dv_deta") is None
                              else dig(imp, "dv_deta") if imp else skip)
     pdg = records.get("pd-gains")
-    for g in ("nominal", "efficient"):
-        out[f"{g}_eig_pdff_closest_gains"] = _nearest_eigenvalue(pdg, g) if pdg else Skip("not run")
+    for g, gait in zip(("nominal", "efficient"), _GAITS["pd-gains"]):
+        out[f"{g}_eig_pdff_closest_gains"] = _nearest_eigenvalue(pdg, gait) if pdg else Skip("not run")
     ex4 = records.get("exp4")
     fell4 = (f"the simulated Exp. 4 fell in step {ex4['steps_completed'] + 1} ({ex4['fell_at_s']:.2f} s in) under the "
              "6 / 10 N m limits" if ex4 and ex4["fell"] else None)
@@ -462,7 +478,7 @@ def measure_hzd(records: dict, quick: bool) -> dict:
                     else dig(ex4, *path))
     out["exp4_closer_to_design_than_exp1"] = _closer_to_design(nom, ex4, out["exp4_speed_mps"], skip)
     gap = (records.get("full-plant") or {}).get("runs", {})
-    for g, key in (("paper-nominal", "fullplant_nominal"), ("paper-efficient", "fullplant_efficient")):
+    for g, key in (("paper-nominal", "fullplant_nominal"), (EXP3_GAIT, "fullplant_efficient")):
         x = gap.get(g)
         if x is None:
             out[f"{key}_cmt"] = out[f"{key}_cmt_ratio"] = skip
@@ -471,15 +487,17 @@ def measure_hzd(records: dict, quick: bool) -> dict:
                 f"the {g} gait fell on the 13-DoF plant in step {x['steps_completed'] + 1} ({x['fell_at_s']:.2f} s in): "
                 "a fallen run has no c_mt (see experiment full-plant)")
         else:
-            out[f"{key}_cmt"], out[f"{key}_cmt_ratio"] = x["cmt"], x["cmt_ratio"]
+            out[f"{key}_cmt"] = (Measured(x["cmt"], dict(zero_clearance=_zero_clearance_text(gap)))
+                                 if g == EXP3_GAIT else x["cmt"])
+            out[f"{key}_cmt_ratio"] = x["cmt_ratio"]
     x = gap.get("paper-nominal")
     out["fullplant_mls_st_rms_deg"] = skip if x is None else x["tracking_rms_deg"]["mLS_st"]
-    n, e = gap.get("paper-nominal"), gap.get("paper-efficient")
+    n, e = gap.get("paper-nominal"), gap.get(EXP3_GAIT)
     if n is None or e is None:
         out["fullplant_exp3_vs_exp1_cmt_change"] = skip
     elif n["fell"] or e["fell"]:
         out["fullplant_exp3_vs_exp1_cmt_change"] = Failed(
-            "the " + " and the ".join(g for g, x in (("paper-nominal", n), ("paper-efficient", e)) if x["fell"])
+            "the " + " and the ".join(g for g, x in (("paper-nominal", n), (EXP3_GAIT, e)) if x["fell"])
             + " gait fell on the 13-DoF plant: a fallen run has no c_mt (see experiment full-plant)")
     else:
         out["fullplant_exp3_vs_exp1_cmt_change"] = Measured(e["cmt"] / n["cmt"] - 1.0, dict(realised_exp1=n["cmt"],
@@ -581,13 +599,11 @@ def _headline(fp, quick: bool, out: dict) -> None:
         out[ids[2]] = Skip(f"the --quick run walks {fp['steps']} steps, fewer than the 78 the row asks")
     else:
         out[ids[2]] = Measured(least, dict(which=which, cable=_cable_text(fp)))
-    _headline_variants(fp, out)
+    _headline_variants(fp, out, judged)
     _one_eps(fp.get("eps_selection"), out)
-    out.update(_headline_more(fp))
+    out.update(_headline_more(fp, judged))
 
 
-#: the walking controllers' torques, in the order of a walk record's peak_torques_nm
-ACTUATOR_NAMES = ("mLA_st", "mLS_st", "mLA_sw", "mLS_sw")
 #: the headline block's further rows (Sec. V-D, V-E, VI-A, VI-C): :func:`_headline_more`
 MORE_ROWS = ("fullplant_joint_rms_pdff", "fullplant_joint_rms_hzd", "fullplant_joint_peak_pdff", "fullplant_joint_peak_hzd",
              "fullplant_decentralized_tracking", "fullplant_torque_noise_hzd_over_pd",
@@ -601,20 +617,20 @@ def _noise(x) -> float:
     return float(np.sqrt(np.mean(v ** 2)))
 
 
-def _headline_more(fp: dict) -> dict:
+def _headline_more(fp: dict, judged: str) -> dict:
     """The judged gait's headline runs read further: the stance leg shape's joint-side rms and
     peak under PD + feedforward and eq. 42 (Sec. V-D), the decentralised controller's tracking
     against eq. 42's, the torque noise of eq. 42 against PD + feedforward and against the
     decentralised form, the peak torques against the capacities, PD + feedforward's left- and
     right-stance speeds (Sec. VI-A), and c_mt's rise with the cables' stretch and with the
-    motor friction (Sec. VI-C, the variant runs ``cmt_factor_runs``)."""
-    g = fp.get("judged_gait", "paper-nominal")
-    by = fp["hzd_runs"][g]
+    motor friction (Sec. VI-C, the variant runs ``cmt_factor_runs``); ``judged``: the gait they
+    are read on."""
+    by = fp["hzd_runs"][judged]
     pd, io, dc = by["pdff"], by["iolin"], by["decentralized"]
     out = {}
     fallen = [c for c, x in by.items() if x["fell"]]
     if fallen:
-        why = Failed(f"{', '.join(fallen)} fell on the 13-DoF plant ({g}): a fallen run has no steady figures")
+        why = Failed(f"{', '.join(fallen)} fell on the 13-DoF plant ({judged}): a fallen run has no steady figures")
         out.update({k: why for k in MORE_ROWS[:9]})
     else:
         for rid, x, kind in ((MORE_ROWS[0], pd, "rms"), (MORE_ROWS[1], io, "rms"), (MORE_ROWS[2], pd, "peak"),
@@ -625,10 +641,10 @@ def _headline_more(fp: dict) -> dict:
                                           tor_decentralized=dc["tracking_rms_deg"]["Tor"], tor_hzd=io["tracking_rms_deg"]["Tor"]))
         out[MORE_ROWS[5]] = Measured(_noise(io) / _noise(pd), dict(hzd=_noise(io), pdff=_noise(pd)))
         out[MORE_ROWS[6]] = Measured(_noise(io) / _noise(dc), dict(hzd=_noise(io), decentralized=_noise(dc)))
-        cap = np.asarray([tb.TORQUE_CAPACITY[a[:3]] for a in ACTUATOR_NAMES], float)
+        cap = np.asarray([tb.TORQUE_CAPACITY[a[:3]] for a in catalog.ACTUATORS], float)
         ratio = {c: np.abs(np.asarray(x["peak_torques_nm"], float)) / cap for c, x in by.items()}
         out[MORE_ROWS[7]] = Measured(float(max(r.max() for r in ratio.values())), dict(peaks="; ".join(
-            f"{c}: " + ", ".join(f"{a} {t:.1f} N m" for a, t in zip(ACTUATOR_NAMES, by[c]["peak_torques_nm"]))
+            f"{c}: " + ", ".join(f"{a} {t:.1f} N m" for a, t in zip(catalog.ACTUATORS, by[c]["peak_torques_nm"]))
             for c in by)))
         left, right = pd["speed_left_stance_mps"], pd["speed_right_stance_mps"]
         out[MORE_ROWS[8]] = (Measured(left / right, dict(left=left, right=right)) if left and right
@@ -680,14 +696,15 @@ def _cable_text(fp: dict) -> str:
     controller with the identified cables (the headline run) and with the stiffer cables, steps
     walked and the stance leg-shape cable's peak stretch (motor side)."""
     runs, g = fp.get("cable_runs"), fp.get("cable_gait")
-    if not runs or g not in fp.get("hzd_runs", {}):
+    identified = fp.get("cable_runs_identified") or fp.get("hzd_runs", {}).get(g)
+    if not runs or not identified:
         return "the cable variant was not run here"
 
     def walked(x):
         return (f"falls in step {x['steps_completed'] + 1}" if x["fell"] else f"walks {x['steps_completed']} steps") + \
             f", stance leg-shape cable stretched {x['cable_stretch_peak_deg']['mLS_st']:.0f} deg"
 
-    parts = [f"{c} on {g}: identified cables {walked(fp['hzd_runs'][g][c])}; cables x {fp['cable_scale']:g} "
+    parts = [f"{c} on {g}: identified cables {walked(identified[c])}; cables x {fp['cable_scale']:g} "
              f"{walked(x)}" for c, x in runs.items() if c != "pdff"]
     return "; ".join(parts) + " (experiment full-plant, cable_runs)"
 
@@ -737,7 +754,7 @@ def _traced(fp: dict) -> str:
     return f"{text}; the largest ratio, {best:.1f}x, on the ground x {k} with the {_ESTIMATE.get(sn, sn)}"
 
 
-def _headline_variants(fp: dict, out: dict) -> None:
+def _headline_variants(fp: dict, out: dict, judged: str) -> None:
     """The rows of the headline's labelled variants (shown, not judged): the stance leg-shape
     ratio and the fewest eq. 42 steps with the velocity observer; on the stiffest ground of the
     factor grid, the ratio with exact rates and the steps eq. 42 walks on the encoders."""
@@ -749,7 +766,6 @@ def _headline_variants(fp: dict, out: dict) -> None:
         return
     scale = max(grid, key=float)
     stiff = grid[scale]
-    judged = fp.get("judged_gait", "paper-nominal")
     base = dict(encoders=_ratio_text(fp["hzd_runs"][judged]))
     for rid, by, facts in ((ids[0], obs[judged], base),
                            (ids[2], stiff["ideal"], dict(scale=float(scale), identified=_ratio_text(grid["1"]["ideal"])
@@ -761,7 +777,7 @@ def _headline_variants(fp: dict, out: dict) -> None:
     least, which = _fewest_steps(obs)
     enc_least, enc_which = _fewest_steps(fp["hzd_runs"])
     out[ids[1]] = Measured(least, dict(which=which, encoders=enc_least, encoders_which=enc_which,
-                                       nominal_ratio=_ratio_text(obs["nominal"])))
+                                       exp3_ratio=_ratio_text(obs[EXP3_GAIT]) if EXP3_GAIT in obs else "not run"))
     io = stiff["encoders"]["iolin"]
     exact_walks = not stiff["ideal"]["iolin"]["fell"]
     reading = ("with exact rates it walks: on this floor the rate estimate decides whether eq. 42 walks" if io["fell"]
@@ -923,7 +939,10 @@ PAPERS = [
                  "the tracking comparison and Table I walk paper-575, the torque gait of that model at the paper's "
                  "0.575 m step (the gait closest to the one the robot walked; its designed torque cost 4.75 against the "
                  "free optimum's 3.83), on the stance model; the shipped nominal gait (full design model, 0.656 m "
-                 "steps) stays the default of walk mabel and is walked by pd-gains and full-plant; Exp. 3 walks paper-efficient (the full-model efficient gait's swing toe "
-                 "strikes the ground behind the stance toe); the full-plant rows walk the paper-model gaits, and for "
-                 "the headline comparison nominal too, on the 13-DoF model (cable stretch, compliant ground).",)),
+                 "steps) stays the default of walk mabel and full-plant walks it beside the others; Exp. 3 walks "
+                 "paper-efficient-clear, the c_mt gait of the paper's design model with 1 cm of swing-toe clearance at "
+                 "mid-step (paper-efficient's swing toe grazes the ground at mid-step and every controller falls on the "
+                 "13-DoF plant; the full-model efficient gait's swing toe strikes the ground behind the stance toe); "
+                 "pd-gains grids the gains on the two designs of the paper's model; the full-plant rows walk the "
+                 "paper-model gaits on the 13-DoF model (cable stretch, compliant ground).",)),
 ]

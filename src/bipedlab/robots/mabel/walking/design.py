@@ -134,8 +134,10 @@ def run_step(m, vc, w0, nodes=NODES):
     return wf, (ths, ws, us, qss, qdss), starts
 
 
-def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP):
-    """(figures, equalities, inequalities) of the decision vector x (all JAX)."""
+def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP, clearance=0.0):
+    """(figures, equalities, inequalities) of the decision vector x (all JAX). ``clearance``
+    (m): the swing toe at least ``clearance * 4 s (1 - s)`` above the ground at every interior
+    node, s the step's fraction of theta (0 the paper's bound: above the ground)."""
     zm = pre_impact_state(x)
     tr = wk.impact(m, zm, eta)
     zp = tr.z_plus
@@ -152,6 +154,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP):
     toe = jax.vmap(lambda z: wk.swing_toe(m, z)[1])(zs)
     n = toe.shape[0]
     interior = (jnp.arange(n) >= 2) & (jnp.arange(n) <= n - 2)
+    frac = (thetas - vc.theta_plus) / (vc.theta_minus - vc.theta_plus)
     toe_rate = jax.jvp(lambda q: wk.swing_toe(m, jnp.concatenate([q, zm[6:]]))[1], (zm[:6],), (zm[6:],))[1]
     eq = jnp.stack([
         (wf[0] - x[1]) * 10, wf[1] - x[6], (wf[2] - x[7]) * 0.2,
@@ -160,7 +163,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP):
         ws[:, 1] - 0.1,
         grf[:, 1] / weight - 0.05,
         (MU * grf[:, 1] - jnp.abs(grf[:, 0])) / weight,
-        jnp.where(interior, toe * 20, 1.0),
+        jnp.where(interior, (toe - clearance * 4.0 * frac * (1.0 - frac)) * 20, 1.0),
         jnp.stack([tr.lift_velocity[1] * 5, (-toe_rate - TOUCHDOWN_RATE) * 5, tr.toe_impulse[1],
                    MU * tr.toe_impulse[1] - jnp.abs(tr.toe_impulse[0]),
                    -b_sc[2] - SPRING_RATE_MARGIN, (vc.theta_sc - vc.theta_mc) * 10, (vc.theta_si - vc.theta_sc) * 10,
@@ -236,7 +239,7 @@ def _compiled(cost):
     (model, x, speed); the speed is traced, so a sweep compiles once per cost."""
     if cost not in _COMPILED:
         def parts(m, x, speed, window):
-            fig, eq, ineq, _ = evaluate(m, x, speed, min_step=window[0], max_step=window[1])
+            fig, eq, ineq, _ = evaluate(m, x, speed, min_step=window[0], max_step=window[1], clearance=window[2])
             y = jnp.concatenate([_scalar_cost(fig, cost)[None], eq, ineq])
             return y, y
 
@@ -269,7 +272,7 @@ def _functions(m, speed, cost, window):
             lambda x: get(x)[1][1:1 + ne], lambda x: get(x)[0][1 + ne:], lambda x: get(x)[1][1 + ne:])
 
 
-def _problem(speed, cost, model=None, window=(0.0, MAX_STEP), kind="full"):
+def _problem(speed, cost, model=None, window=(0.0, MAX_STEP, 0.0), kind="full"):
     return _functions(design_model(model, kind), speed, cost, window)
 
 
@@ -281,13 +284,15 @@ def compile_problem(speed: float, cost: str, model=None, kind: str = "full") -> 
 
 
 def optimize(speed: float = 0.8, cost: str = "torque", x0=None, maxiter: int = 500, ftol: float = 1e-9,
-             model=None, min_step: float = 0.0, max_step: float = MAX_STEP, kind: str = "full"):
+             model=None, min_step: float = 0.0, max_step: float = MAX_STEP, kind: str = "full",
+             clearance: float = 0.0):
     """Solve the gait-design NLP from x0 (default: :func:`initial_guess`) on the design model
     ``kind`` (:data:`DESIGN_MODELS`), the step length kept within [min_step, max_step] (m;
-    equal bounds prescribe it); returns (Design, info) with info: success, message,
+    equal bounds prescribe it), the swing toe's mid-step clearance at least ``clearance`` (m,
+    :func:`evaluate`); returns (Design, info) with info: success, message,
     iterations, wall_s, eq_residual, ineq_violation."""
     m = design_model(model, kind)
-    f, fj, e, ej, i, ij = _problem(speed, cost, model, (min_step, max_step), kind)
+    f, fj, e, ej, i, ij = _problem(speed, cost, model, (min_step, max_step, clearance), kind)
     x0 = initial_guess(speed) if x0 is None else np.asarray(x0, float)
     t0 = time.perf_counter()
     x0 = feasible_start(f, e, ej, i, ij, x0)

@@ -109,7 +109,7 @@ def actuator_torques(u, stance):
     return u[jnp.asarray(_TO_ACTUATORS)[stance]]
 
 
-def grounded(m: mm.Mabel, setup: sw.Setup) -> mm.Mabel:
+def scaled_plant(m: mm.Mabel, setup: sw.Setup) -> mm.Mabel:
     """The plant ``m`` with its ground's stiffness and damping scaled by ``setup.ground``, its
     cables' by ``setup.cable`` and its motors' viscous friction by ``setup.friction`` (data of the
     compiled loop: one program for every scale)."""
@@ -132,7 +132,7 @@ def plant_step(m, setup: sw.Setup, p: Plant, u, d, h, t) -> Plant:
     (once it has risen LIFT_CLEARANCE, ahead of the stance toe, after ``TOUCHDOWN_AFTER`` of
     the nominal period, one per sample) relabels the legs; a swing toe scuffing the ground
     behind the stance toe is dragged by the ground's friction and is no step."""
-    m = grounded(m, setup)
+    m = scaled_plant(m, setup)
     act = jnp.clip(actuator_torques(u, p.stance), -m.drive.torque_limit, m.drive.torque_limit)
     push = jnp.where(p.step != d.step0, 0.0, 1.0) * d.force  # the push stops at a touchdown
     xn = md.step(m, p.x, act, h, push)
@@ -182,7 +182,7 @@ def log(m, setup: sw.Setup, p0: Plant, r, u, p: Plant, c: sw.Ctrl) -> dict:
     the compliant ground's force on the stance toe) and the spring pulleys of the stance and
     swing legs, the stance side, the stance toe's drift from its touchdown point (m) and the
     cable stretch of both legs (:func:`cable_stretch`)."""
-    m = grounded(m, setup)
+    m = scaled_plant(m, setup)
     q, qd = stance_state(p0.x, p0.stance)
     y, yd = vcm.outputs(c.vc, c.phase, q, qd)
     grf = md.ground_forces(m, p0.x)[p0.stance]

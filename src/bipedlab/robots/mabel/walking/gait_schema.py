@@ -14,7 +14,8 @@ feedforward torques 1000 N m), and:
 * ``z_minus``, ``z_plus``: 6 stance coordinates (rad) then 6 rates (rad/s);
 * ``design``: ``period`` (s, within [:data:`MIN_PERIOD`, :data:`MAX_PERIOD`]) and ``speed``
   (m/s) required, ``step_length`` (m) optional, other figures free;
-* optional: ``name``, ``cost`` and ``design_model`` (strings), ``speed`` (m/s), ``x`` (the decision vector),
+* optional: ``name``, ``cost`` and ``design_model`` (strings), ``speed`` (m/s), ``clearance`` (m, the
+  design's swing-toe clearance at mid-step), ``x`` (the decision vector),
   ``poincare`` (null, or per controller an object whose ``max_abs_eigenvalue`` is a number).
 """
 from __future__ import annotations
@@ -98,6 +99,7 @@ def check(d: dict, source: str, pre: str = "payload.") -> None:
     for key in ("name", "cost", "design_model"):
         sc.text(d, key, source, pre, required=False)
     sc.optional_number(d, "speed", source, pre, MAX_SPEED, "m/s")
+    sc.optional_number(d, "clearance", source, pre, MAX_STEP, "m")
     if d.get("x") is not None:
         sc.array(d, "x", source, pre, (None,), sc.RATE, "")
 

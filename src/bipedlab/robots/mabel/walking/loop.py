@@ -41,6 +41,7 @@ import jax
 import jax.numpy as jnp
 import numpy as np
 
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import constraints as vcm
 from bipedlab.robots.mabel.walking import controllers as ctl
 from bipedlab.robots.mabel.walking.zero_dynamics import motor_power
@@ -309,7 +310,7 @@ def contact_record(log, n_samples=None) -> dict:
 
 
 #: the controller's torques, in its order
-ACTUATORS = ("mLA_st", "mLS_st", "mLA_sw", "mLS_sw")
+ACTUATORS = catalog.ACTUATORS
 #: the stance coordinates whose rates the controller estimates, in the state's order
 RATES = ("LA_st", "mLS_st", "Bsp_st", "LA_sw", "mLS_sw", "Tor")
 

@@ -61,9 +61,10 @@ def _vc_from(d: dict) -> vcm.Constraints:
 
 
 def record(name: str, design: md.Design, gains: ctl.Gains, speed: float, cost: str, poincare: dict | None,
-           design_model: str | None = None) -> dict:
+           design_model: str | None = None, clearance: float = 0.0) -> dict:
     return gaitfile.envelope("mabel", KIND, dict(
-                name=name, speed=speed, cost=cost, design_model=design_model, x=np.asarray(design.x).tolist(),
+                name=name, speed=speed, cost=cost, design_model=design_model, clearance=clearance,
+                x=np.asarray(design.x).tolist(),
                 constraints=_vc_dict(design.vc), z_minus=np.asarray(design.z_minus).tolist(),
                 z_plus=np.asarray(design.z_plus).tolist(),
                 feedforward=dict(beta=np.asarray(gains.beta).tolist(), bounds=np.asarray(gains.beta_bounds).tolist(),
@@ -169,11 +170,13 @@ def _start_point(speed: float, cost: str, shipped_only: bool = False, design_mod
 STEP_CONTINUATION = 0.03
 
 
-def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None, design_model: str = "paper"):
+def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None, design_model: str = "paper",
+                clearance: float = 0.0):
     """Optimise (torque cost first; for c_mt, continue from the torque optimum) on the design
     model ``design_model`` (:data:`~bipedlab.robots.mabel.walking.design.DESIGN_MODELS`). With
     ``step_length`` (m) the step is prescribed, reached from the nearest shipped gait by
-    continuation in increments of at most STEP_CONTINUATION. Returns (design, info with warm
+    continuation in increments of at most STEP_CONTINUATION; ``clearance`` (m): the swing toe's
+    least mid-step height (:func:`~bipedlab.robots.mabel.walking.design.evaluate`). Returns (design, info with warm
     and cold times)."""
     say = progress or (lambda msg: None)
     start, L0 = "given start", None
@@ -195,23 +198,25 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
         window = {} if L is None else dict(min_step=float(L), max_step=float(L))
         if L is not None:
             say(f"step length {L:.3f} m")
-        d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, kind=design_model, **window)
+        d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, kind=design_model, clearance=clearance,
+                              **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     if cost == "cmt":
         say("continuing from the torque optimum with the c_mt cost")
-        d, info = md.optimize(speed, "cmt", x0=d.x, kind=design_model, **window)
+        d, info = md.optimize(speed, "cmt", x0=d.x, kind=design_model, clearance=clearance, **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     info.update(iterations=its, warm_s=wall, cold_s=cold_compile + wall, start=start)
     return d, info
 
 
 def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None,
-             step_length=None, design_model: str = "paper", x0=None) -> dict:
+             step_length=None, design_model: str = "paper", x0=None, clearance: float = 0.0) -> dict:
     """Design a gait (:func:`design_gait`) on ``design_model`` and report it; the u* regression
     of PD + feedforward follows the design model's orbit, the Poincaré analysis runs on the
     walking model (the plant of ``walk mabel``)."""
     say = progress or (lambda msg: None)
-    d, info = design_gait(speed, cost, x0=x0, progress=progress, step_length=step_length, design_model=design_model)
+    d, info = design_gait(speed, cost, x0=x0, progress=progress, step_length=step_length, design_model=design_model,
+                          clearance=clearance)
     m = wk.walking_model()
     m_design = m if design_model == "full" else md.design_model(m, design_model)
     gains = md.controller_gains(m_design, d)
@@ -230,7 +235,7 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
         optimize_warm_s=float(info["warm_s"]), optimize_cold_s=float(info["cold_s"]),
         iterations=int(info["iterations"]), converged=bool(info["success"]), solver_message=info["message"],
         equality_residual=float(info["eq_residual"]), start=info["start"],
-        prescribed_step_length_m=step_length, design_model=design_model,
+        prescribed_step_length_m=step_length, design_model=design_model, clearance_m=clearance,
         torso_travel_deg=float(np.degrees(md.torso_travel(m_design, d))))
     if pc is not None:
         rec.update(max_abs_eigenvalue=pc["hzd"]["max_abs_eigenvalue"], poincare_eigenvalues=pc["hzd"]["poincare_eigenvalues"],
@@ -242,7 +247,7 @@ def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool 
     if save:
         name = Path(save).stem
         with open(save, "w") as fh:  # strict JSON: a failed analysis' NaN as null
-            dump_json(record(name, d, gains, speed, cost, pc, design_model), fh, indent=1)
+            dump_json(record(name, d, gains, speed, cost, pc, design_model, clearance), fh, indent=1)
         rec["saved"] = str(save)
     if out:
         from bipedlab.robots.mabel.walking import plots as wp
