@@ -106,47 +106,41 @@ def test_shipped_gains_eigenvalue_equals_study_poincare(sweep):
     """At the shipped gains the sweep's dominant eigenvalue (Newton with a central-difference
     Jacobian on the batched map) equals study.poincare's (Newton with the exact forward-mode
     Jacobian, its own compiled map) within 1e-6: the central differences (step 1e-6) agree with
-    the exact Jacobian to about 1e-7 relative, and both fixed points are converged to 1e-10
-    (measured: -0.88767001 against -0.88766998). The nominal gait's eigenvalue is real and
-    negative (an alternating mode), -0.8877; the paper's 0.6921 is positive and smaller. (The
-    gait file stores -0.8903, from an earlier model: not compared.)"""
-    _, g, rec = wm.load_gait("nominal")
+    the exact Jacobian to about 1e-7 relative, and both fixed points are converged to 1e-10.
+    The paper-nominal gait's eigenvalue is real and positive, 0.7219, as the paper's 0.6921."""
+    _, g, rec = wm.load_gait("paper-nominal")
     pc = wm.poincare(wm.design_from_record(rec), g, ("pdff",))
     exact = complex(*pc["pdff"]["poincare_eigenvalues_complex"][0])
-    ours = sweep["studies_gains"]["nominal"]["dominant_eigenvalue"]
+    ours = sweep["studies_gains"]["paper-nominal"]["dominant_eigenvalue"]
     assert pc["pdff"]["fixed_point_residual"] < 1e-10
     assert abs(complex(ours["re"], ours["im"]) - exact) < 1e-6
-    assert ours["re"] == pytest.approx(-0.8877, abs=1e-4) and ours["im"] == 0.0
+    assert ours["re"] == pytest.approx(0.7219, abs=1e-4) and ours["im"] == 0.0
 
 
 @pytest.mark.slow
 def test_dominant_eigenvalue_changes_with_the_gains_as_measured(sweep):
-    """Measured on this model (the paper gives neither its gains nor a sweep): on the nominal
-    gait the dominant eigenvalue is real and negative over the grid, and raising the gains
-    speeds convergence: kd x 1.5 (kp as shipped) takes it from -0.888 to -0.494, kp and kd x 1.5
-    to -0.235, while kp and kd x 0.75 make the gait unstable (-1.394). The paper's 0.6921 is
-    real and positive; kp x 1.5, kd x 0.75 gives -0.663 (|.| within 0.03 of it, but of the
-    opposite sign), so the grid point nearest it in the complex plane is kp and kd x 1.5
-    (-0.235, 0.927 away). The efficient gait's eigenvalue is real and
-    positive, stable at every grid point (0.68 to 0.99) and nearest its paper value 0.8194 at
-    kd x 1.5 (0.8246). Tolerances 1e-3 on the eigenvalues: the fixed points converge to 1e-10,
+    """Measured on this model (the paper gives neither its gains nor a sweep): on both gaits of
+    the paper's design model the dominant eigenvalue is real and positive at every point of the
+    3 x 3 grid, as the paper's, and moves little with the gains: paper-nominal 0.686 (kp and kd
+    x 0.75) to 0.747 (x 1.5), nearest the paper's 0.6921 at kp x 0.75, kd x 1 (0.6891);
+    paper-efficient 0.767 (x 1.5) to 0.829 (kp x 1.5, kd x 0.75), nearest 0.8194 at kp and kd
+    x 0.75 (0.8194). Tolerances 1e-3 on the eigenvalues: the fixed points converge to 1e-10,
     the central-difference Jacobian is good to about 1e-7; 1e-3 keeps the assertion to the
     digits quoted."""
     pts = {g: {(x["kp_scale"], x["kd_scale"]): x["dominant_eigenvalue"] for x in rows}
            for g, rows in sweep["gains_grid"]["points"].items()}
-    nom = pts["nominal"]
-    assert all(e is not None and e["re"] < 0.0 and e["im"] == 0.0 for e in nom.values())
-    assert nom[(1.0, 1.0)]["re"] == pytest.approx(-0.8877, abs=1e-3)
-    assert nom[(1.0, 1.5)]["re"] == pytest.approx(-0.4938, abs=1e-3)
-    assert nom[(1.5, 1.5)]["re"] == pytest.approx(-0.2351, abs=1e-3)
-    assert nom[(0.75, 0.75)]["re"] == pytest.approx(-1.3940, abs=1e-3)
-    assert nom[(1.5, 0.75)]["re"] == pytest.approx(-0.6630, abs=1e-3)  # |.| 0.03 from the paper's, sign opposite
-    c = sweep["closest_to_paper"]["nominal"]  # nearest the paper's real, positive 0.6921 in the complex plane
-    assert (c["kp_scale"], c["kd_scale"]) == (1.5, 1.5)  # the negative eigenvalue nearest zero
-    assert c["difference"] == pytest.approx(0.6921 + 0.2351, abs=1e-3)
-    eff = pts["efficient"]
-    assert all(e is not None and 0.6 < e["re"] < 1.0 and e["im"] == 0.0 for e in eff.values())
-    assert eff[(1.0, 1.0)]["re"] == pytest.approx(0.8070, abs=1e-3)
-    c = sweep["closest_to_paper"]["efficient"]
-    assert (c["kp_scale"], c["kd_scale"]) == (1.0, 1.5)
-    assert c["dominant_eigenvalue"]["abs"] == pytest.approx(0.8246, abs=1e-3)
+    nom = pts["paper-nominal"]
+    assert all(e is not None and 0.6 < e["re"] < 0.8 and e["im"] == 0.0 for e in nom.values())
+    assert nom[(1.0, 1.0)]["re"] == pytest.approx(0.7219, abs=1e-3)
+    assert nom[(0.75, 0.75)]["re"] == pytest.approx(0.6861, abs=1e-3)
+    assert nom[(1.5, 1.5)]["re"] == pytest.approx(0.7471, abs=1e-3)
+    c = sweep["closest_to_paper"]["paper-nominal"]
+    assert (c["kp_scale"], c["kd_scale"]) == (0.75, 1.0)
+    assert c["dominant_eigenvalue"]["re"] == pytest.approx(0.6891, abs=1e-3)
+    eff = pts["paper-efficient"]
+    assert all(e is not None and 0.7 < e["re"] < 0.9 and e["im"] == 0.0 for e in eff.values())
+    assert eff[(1.0, 1.0)]["re"] == pytest.approx(0.8190, abs=1e-3)
+    assert eff[(1.5, 1.5)]["re"] == pytest.approx(0.7670, abs=1e-3)
+    c = sweep["closest_to_paper"]["paper-efficient"]
+    assert (c["kp_scale"], c["kd_scale"]) == (0.75, 0.75)
+    assert c["dominant_eigenvalue"]["abs"] == pytest.approx(0.8194, abs=1e-3)
