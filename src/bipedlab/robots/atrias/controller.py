@@ -124,6 +124,8 @@ FLIGHT, SLIDING, STANCE = 0, 1, 2
 #: the share of the lift-off energy error the nominal stance's stiffness modulation removes, which
 #: sets eq. (7)'s gain c (the paper gives no value)
 ENERGY_GAIN = 0.5
+#: the gait the controller regulates and the runs start at: apex height (m) and speed (m/s)
+APEX_HEIGHT, SPEED = 1.05, 5.0
 
 
 @pytree
@@ -189,8 +191,8 @@ def init_state(cp: CtrlParams, leg: int = 0) -> CtrlState:
                      f64(0.0), f64(0.0), f64(0.0))
 
 
-def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=1.05,
-                speed=5.0, theta_star=np.deg2rad(10.0), tau_max=250.0, regulation=True, energy_gain=ENERGY_GAIN,
+def make_params(mp: rm.ModelParams, smm: slip.SlipParams, policy: slip.SwingPolicy, *, y_apex=APEX_HEIGHT,
+                speed=SPEED, theta_star=np.deg2rad(10.0), tau_max=250.0, regulation=True, energy_gain=ENERGY_GAIN,
                 Q=(4e5, 4e5, 100.0, 100.0), R=(1.0, 1.0), stiffness_scale=1.0) -> CtrlParams:
     """Controller parameters; the flight LQR gain from the reduced system (A_r, B_r)."""
     A, B = rm.flight_reduced_system(mp.I_t, mp.I_m)

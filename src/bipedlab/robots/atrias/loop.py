@@ -189,7 +189,8 @@ def slip_angle0(cp):
     return slip.policy_angle(cp.policy, 0.0)
 
 
-def initial_state(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig, y_apex=1.05, speed=5.0) -> sl.LoopState:
+def initial_state(rp: at.AtriasParams, cp: rc.CtrlParams, cfg: RunConfig, y_apex=rc.APEX_HEIGHT,
+                  speed=rc.SPEED) -> sl.LoopState:
     """Start at the target apex with the legs mirrored, leg 0 about to land."""
     th = cp.theta_star
     g0 = rc.landing_hip_angle(cp, th, slip_angle0(cp))

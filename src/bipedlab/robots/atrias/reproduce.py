@@ -238,9 +238,8 @@ def measure(records: dict, quick: bool) -> dict:
         out["rough_slip_apex_sd_m"] = _with_draws(dig(rough, "slip_model", "apex_height_sd_m"),
                                                   dig(rough, "slip_model", "per_trial", default=None))
         out["rough_slip_speed_sd_mps"] = dig(rough, "slip_model", "speed_sd_mps")
-    for e in EXPERIMENTS:
-        if e.name.startswith(("mass", "stiffness", "inertia", "friction")):
-            out.update(_stats(records.get(e.name), e.name, missing))
+    for name in (_err_name(n, rel) for n, rel in ERRORS):
+        out.update(_stats(records.get(name), name, missing))
     out.update(_model_error_shifts(records, missing, rows))
     out.update(_variants(records, missing))
     return {k: v for k, v in out.items() if k in rows}
@@ -273,10 +272,11 @@ def _model_error_shifts(records: dict, missing: Skip, rows: dict) -> dict:
     shifts together do to the apex energy, M (g dh + v* dv) to first order with M the robot's
     mass (``energy_shift_j``), beside what the paper's pair of errors means
     (``paper_energy_j``; ``rows``: the paper's rows by id)."""
+    from bipedlab.robots.atrias import controller as rc
     from bipedlab.robots.atrias import robot as at
 
     rp = at.AtriasParams()
-    mass, speed = rp.m + 2 * rp.m_f, 5.0
+    mass, speed = rp.m + 2 * rp.m_f, rc.SPEED
     energy = lambda dh, dv: mass * (rp.g * dh + speed * dv)  # noqa: E731
     free = records.get("rough-conservation")
     out = {}
@@ -364,13 +364,12 @@ def _sd_ratios(records: dict, missing: Skip) -> dict:
     the same kind of terrain (experiment rough-conservation): "very little effect" (Sec. IV-C)."""
     free = dig(records.get("rough-conservation"), "apex_height_sd_m") if records.get("rough-conservation") else None
     out = {}
-    for e in EXPERIMENTS:
-        if e.name.startswith(("inertia", "friction")):
-            rec = records.get(e.name)
-            sd = dig(rec, "apex_height_sd_m") if rec is not None else None
-            out[f"{e.name}_apex_sd_ratio"] = (missing if rec is None or records.get("rough-conservation") is None
-                                              else None if sd is None or not free
-                                              else Measured(sd / free, dict(this=sd, reference=free)))
+    for name in (_err_name(n, rel) for n, rel in ERRORS if n in ("inertia", "friction")):
+        rec = records.get(name)
+        sd = dig(rec, "apex_height_sd_m") if rec is not None else None
+        out[f"{name}_apex_sd_ratio"] = (missing if rec is None or records.get("rough-conservation") is None
+                                        else None if sd is None or not free
+                                        else Measured(sd / free, dict(this=sd, reference=free)))
     return out
 
 

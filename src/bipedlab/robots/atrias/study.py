@@ -17,7 +17,6 @@ with the polynomial's fit error ``policy_fit``, :func:`bipedlab.control.slip.fit
 from __future__ import annotations
 
 import functools
-import json
 import os
 import sys
 import time
@@ -104,7 +103,7 @@ def _build(model_error, energy):
     err = dict(model_error)
     s_m, s_i, s_f, s_k = (1 + err.get(k, 0.0) for k in MODEL_ERRORS)
     mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, 0.8 * s_f, m_f=rp.m_f * s_m)
-    gait = slip.Gait(1.05, 5.0)
+    gait = slip.Gait(rc.APEX_HEIGHT, rc.SPEED)
     # A model error is one of the controller's model wherever the controller uses it, the plant
     # keeping its true values (Sec. IV-C: mass and stiffness errors "produce errors in foot placement
     # policy"). Mass: the swing-leg policy's spring-mass model, the stance inverse dynamics, the
