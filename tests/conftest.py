@@ -77,43 +77,58 @@ def pytest_unconfigure(config):
 
 # ----- longest modules first ----------------------------------------------------------------
 #: The test modules that take longest (seconds of setup + calls + teardown summed per module
-#: from ``--junitxml``, one default-tier run on a two-core AMD EPYC at commit ae0404b; the
-#: compile profile below gives their compile seconds, not these totals).
-#: The workers take modules in collection order (--dist loadfile), so a long module collected
-#: last keeps one worker busy while the other idles; these go first, the short ones fill the end.
+#: from ``--junitxml``, one default-tier run on an idle two-core Intel Xeon at commit 284ef60;
+#: 1,124 s in all, these 45 modules 1,002 s of it).
+#: The workers take modules in collection order (--dist loadfile with --no-loadscope-reorder:
+#: without it pytest-xdist >= 3.8 orders the modules by their number of tests, and the longest
+#: module could start last while the other worker idled, 75 s at 284ef60), so these go first
+#: and the short ones fill the end.
 LONGEST_FIRST = (
-    "robots/imported/test_stable_by_design.py",       # 113 s
-    "test_docs.py",                                   # 80 s
-    "robots/seven_link/test_walk_seven_link.py",      # 79 s
-    "robots/mabel/sysid/test_sysid_cli.py",           # 78 s
-    "test_robustness_resume.py",                      # 64 s
-    "robots/five_link/test_five_link_gait.py",        # 62 s
-    "test_reproduce_resume.py",                       # 59 s
-    "robots/atrias/test_atrias_controller.py",        # 59 s
-    "core/sim/test_gradients.py",                     # 58 s
-    "test_cli.py",                                    # 44 s
-    "robots/seven_link/test_seven_link_boom.py",      # 43 s
-    "robots/mabel/test_hop_mabel.py",                 # 41 s
-    "robots/mabel/test_mabel_full_plant.py",          # 38 s
-    "robots/mabel/test_mabel_model.py",               # 38 s
-    "robots/five_link/test_five_link_cli.py",         # 37 s
-    "test_reproduce_browser.py",                      # 35 s
-    "robots/mabel/test_mabel_walking_controllers.py", # 33 s
-    "robots/atrias/test_run_atrias_fidelity.py",      # 29 s
-    "core/contact/test_rigid.py",                     # 29 s
-    "robots/atrias/test_atrias_shared_program.py",    # 28 s
-    "golden/test_golden_cli.py",                      # 27 s
-    "core/control/test_hzd.py",                       # 26 s
-    "core/mechanics/test_tree_dynamics.py",           # 26 s
-    "robots/mabel/test_mabel_vc_and_zd.py",           # 25 s
-    "test_studybench.py",                             # 24 s
-    "robots/mabel/test_mabel_paper_design.py",        # 24 s
-    "core/robustness/test_chunks.py",                 # 24 s
-    "robots/mabel/sysid/test_sysid_legs.py",          # 24 s
-    "core/mechanics/test_stance.py",                  # 24 s
-    "golden/test_golden_loops.py",                    # 22 s
-    "core/mechanics/test_kinematics.py",              # 21 s
-    "robots/mabel/test_mabel_fidelity.py",            # 19 s
+    "robots/imported/test_stable_by_design.py",           # 70 s
+    "robots/mabel/sysid/test_sysid_cli.py",               # 62 s
+    "test_docs.py",                                       # 55 s
+    "robots/seven_link/test_walk_seven_link.py",          # 45 s
+    "core/sim/test_gradients.py",                         # 38 s
+    "test_robustness_resume.py",                          # 37 s
+    "robots/atrias/test_atrias_controller.py",            # 36 s
+    "robots/five_link/test_five_link_gait.py",            # 33 s
+    "robots/mabel/test_mabel_model.py",                   # 31 s
+    "robots/mabel/test_mabel_full_plant.py",              # 30 s
+    "robots/seven_link/test_seven_link_boom.py",          # 28 s
+    "robots/five_link/test_five_link_cli.py",             # 27 s
+    "test_reproduce_resume.py",                           # 27 s
+    "robots/mabel/test_hop_mabel.py",                     # 25 s
+    "test_cli.py",                                        # 25 s
+    "robots/atrias/test_atrias_shared_program.py",        # 20 s
+    "robots/mabel/test_mabel_walking_controllers.py",     # 20 s
+    "test_reproduce_browser.py",                          # 19 s
+    "robots/mabel/test_mabel_vc_and_zd.py",               # 19 s
+    "core/contact/test_rigid.py",                         # 16 s
+    "core/mechanics/test_stance.py",                      # 16 s
+    "robots/mabel/sysid/test_sysid_legs.py",              # 15 s
+    "golden/test_golden_loops.py",                        # 15 s
+    "core/control/test_hzd.py",                           # 15 s
+    "core/robustness/test_chunks.py",                     # 15 s
+    "robots/atrias/test_run_atrias_fidelity.py",          # 15 s
+    "golden/test_golden_cli.py",                          # 15 s
+    "core/mechanics/test_kinematics.py",                  # 14 s
+    "robots/mabel/test_mabel_fidelity.py",                # 14 s
+    "test_studybench.py",                                 # 14 s
+    "robots/mabel/test_mabel_paper_design.py",            # 13 s
+    "core/mechanics/test_tree_dynamics.py",               # 13 s
+    "robots/mabel/test_walk_mabel_cli.py",                # 11 s
+    "core/sim/test_hybrid.py",                            # 11 s
+    "core/mechanics/test_coupled.py",                     # 10 s
+    "robots/atrias/test_run_atrias.py",                   # 10 s
+    "core/control/test_bezier.py",                        # 10 s
+    "core/sim/test_integrators.py",                       # 10 s
+    "core/mechanics/test_array_kernel.py",                # 10 s
+    "robots/imported/test_rabbit_gait.py",                # 10 s
+    "robots/seven_link/test_seven_link_controller.py",    # 9 s
+    "core/gait/test_one_program_per_loop.py",             # 9 s
+    "robots/mabel/test_mabel_walk_one_program.py",        # 9 s
+    "robots/mabel/test_mabel_walking.py",                 # 9 s
+    "test_cli_reliability.py",                            # 8 s
 )
 
 
