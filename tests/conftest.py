@@ -166,6 +166,10 @@ def five():
 _PROFILE_DIR = os.environ.get("BIPEDLAB_TEST_COMPILE_PROFILE")
 _profile: dict = {}
 _current = {"test": "(collection)"}
+#: XLA compilations shorter than this are counted apart ("small" in the summary): nearly all are
+#: the one-operation programs JAX compiles for operations run outside jit (a model's function
+#: called on concrete arrays), 0.02-0.05 s each, thousands per run
+SMALL_PROGRAM_S = 0.1
 _COMPILE_EVENTS = {"/jax/core/compile/jaxpr_trace_duration": "trace_s",
                    "/jax/core/compile/jaxpr_to_mlir_module_duration": "lower_s",
                    "/jax/core/compile/backend_compile_duration": "compile_s"}
@@ -178,6 +182,9 @@ def _on_duration(event, duration, **kwargs):
         row[key] = row.get(key, 0.0) + duration
         if key == "compile_s":
             row["programs"] = row.get("programs", 0) + 1
+            if duration < SMALL_PROGRAM_S:  # mostly eager operations, each its own program
+                row["small"] = row.get("small", 0) + 1
+                row["small_s"] = row.get("small_s", 0.0) + duration
 
 
 def _on_event(event, **kwargs):
@@ -231,12 +238,16 @@ def pytest_terminal_summary(terminalreporter, exitstatus, config):
             for k, v in row.items():
                 m[k] = m.get(k, 0) + v
     total = lambda r: r.get("trace_s", 0) + r.get("lower_s", 0) + r.get("compile_s", 0)  # noqa: E731
-    terminalreporter.write_sep("=", "compile seconds per module (trace + lower + XLA compile, programs, cache hits)")
+    terminalreporter.write_sep("=", "compile seconds per module (trace + lower + XLA compile, programs, cache hits, "
+                                    f"programs compiled in under {SMALL_PROGRAM_S} s and their seconds)")
     for mod, r in sorted(modules.items(), key=lambda kv: -total(kv[1]))[:40]:
         terminalreporter.write_line(f"{total(r):8.1f} s  ({r.get('trace_s', 0):6.1f} + {r.get('lower_s', 0):6.1f} + "
                                     f"{r.get('compile_s', 0):6.1f})  {r.get('programs', 0):5d} programs  "
-                                    f"{r.get('cache_hits', 0):5d} hits  {mod}")
-    terminalreporter.write_line(f"{sum(total(r) for r in modules.values()):8.1f} s  in all")
+                                    f"{r.get('cache_hits', 0):5d} hits  {r.get('small', 0):5d} small "
+                                    f"{r.get('small_s', 0.0):6.1f} s  {mod}")
+    terminalreporter.write_line(f"{sum(total(r) for r in modules.values()):8.1f} s  in all; "
+                                f"{sum(r.get('small', 0) for r in modules.values())} small programs, "
+                                f"{sum(r.get('small_s', 0.0) for r in modules.values()):.1f} s")
     if len(ended) > 1:  # the idle tail: the first worker to finish waited this long for the last
         last, first = max(ended.values()), min(ended.values())
         terminalreporter.write_line(f"workers ended {last - first:.1f} s apart ({', '.join(sorted(ended))})")

@@ -15,6 +15,11 @@ from numpy.polynomial import Polynomial
 
 from bipedlab.control import bezier as bz
 
+#: the functions under test compiled, each once per shape: run op by op, every new shape of
+#: alpha or s compiled each of their dozen operations on its own (300 small programs, most of
+#: this module's compile time)
+_bezier, _bezier_d, _bezier_dd = (jax.jit(f) for f in (bz.bezier, bz.bezier_d, bz.bezier_dd))
+
 S_GRID = np.r_[0.0, 1e-3, 0.137, 0.25, 0.5, 0.731, 0.9, 1.0 - 1e-3, 1.0]
 
 
@@ -40,44 +45,44 @@ def test_values_and_derivatives_match_power_basis(M):
     s = jnp.asarray(S_GRID)
     for row in range(3):
         p = _power_basis(alpha[row])
-        b = np.asarray(bz.bezier(alpha[row], s))
+        b = np.asarray(_bezier(alpha[row], s))
         np.testing.assert_allclose(b, p(S_GRID), rtol=1e-12, atol=1e-12)
         np.testing.assert_allclose(b, [_bernstein_sum(alpha[row], v) for v in S_GRID], rtol=1e-12, atol=1e-12)
-        np.testing.assert_allclose(np.asarray(bz.bezier_d(alpha[row], s)), p.deriv(1)(S_GRID), rtol=1e-11, atol=1e-11)
-        np.testing.assert_allclose(np.asarray(bz.bezier_dd(alpha[row], s)), p.deriv(2)(S_GRID), rtol=1e-10, atol=1e-10)
+        np.testing.assert_allclose(np.asarray(_bezier_d(alpha[row], s)), p.deriv(1)(S_GRID), rtol=1e-11, atol=1e-11)
+        np.testing.assert_allclose(np.asarray(_bezier_dd(alpha[row], s)), p.deriv(2)(S_GRID), rtol=1e-10, atol=1e-10)
     # several outputs in one call: alpha (m, M+1) with a scalar s -> one value per row
     for v in (0.0, 0.3, 1.0):
-        np.testing.assert_allclose(np.asarray(bz.bezier(alpha, v)), [_power_basis(a)(v) for a in alpha], atol=1e-12)
-        np.testing.assert_allclose(np.asarray(bz.bezier_d(alpha, v)), [_power_basis(a).deriv()(v) for a in alpha],
+        np.testing.assert_allclose(np.asarray(_bezier(alpha, v)), [_power_basis(a)(v) for a in alpha], atol=1e-12)
+        np.testing.assert_allclose(np.asarray(_bezier_d(alpha, v)), [_power_basis(a).deriv()(v) for a in alpha],
                                    atol=1e-11)
 
 
 def test_derivatives_match_autodiff_and_finite_differences():
     rng = np.random.default_rng(7)
     alpha = jnp.asarray(rng.normal(size=6))
-    b = lambda s: bz.bezier(alpha, s)  # noqa: E731
+    b = lambda s: _bezier(alpha, s)  # noqa: E731
     db = jax.vmap(jax.grad(b))
     ddb = jax.vmap(jax.grad(jax.grad(b)))
     s = jnp.asarray(S_GRID)
-    np.testing.assert_allclose(np.asarray(bz.bezier_d(alpha, s)), np.asarray(db(s)), rtol=1e-12, atol=1e-12)
-    np.testing.assert_allclose(np.asarray(bz.bezier_dd(alpha, s)), np.asarray(ddb(s)), rtol=1e-11, atol=1e-11)
+    np.testing.assert_allclose(np.asarray(_bezier_d(alpha, s)), np.asarray(db(s)), rtol=1e-12, atol=1e-12)
+    np.testing.assert_allclose(np.asarray(_bezier_dd(alpha, s)), np.asarray(ddb(s)), rtol=1e-11, atol=1e-11)
     h = 1e-5
     fd = (np.asarray(b(s + h)) - np.asarray(b(s - h))) / (2 * h)
-    np.testing.assert_allclose(np.asarray(bz.bezier_d(alpha, s)), fd, rtol=1e-8, atol=1e-8)
+    np.testing.assert_allclose(np.asarray(_bezier_d(alpha, s)), fd, rtol=1e-8, atol=1e-8)
     h = 1e-4
     fd2 = (np.asarray(b(s + h)) - 2 * np.asarray(b(s)) + np.asarray(b(s - h))) / h**2
-    np.testing.assert_allclose(np.asarray(bz.bezier_dd(alpha, s)), fd2, rtol=1e-5, atol=1e-5)
+    np.testing.assert_allclose(np.asarray(_bezier_dd(alpha, s)), fd2, rtol=1e-5, atol=1e-5)
 
 
 def test_endpoint_properties():
     rng = np.random.default_rng(3)
     for M in (2, 4, 5, 7):
         a = rng.normal(size=(4, M + 1))
-        np.testing.assert_allclose(np.asarray(bz.bezier(a, 0.0)), a[:, 0], atol=1e-14)
-        np.testing.assert_allclose(np.asarray(bz.bezier(a, 1.0)), a[:, M], atol=1e-14)
-        np.testing.assert_allclose(np.asarray(bz.bezier_d(a, 0.0)), M * (a[:, 1] - a[:, 0]), atol=1e-12)
-        np.testing.assert_allclose(np.asarray(bz.bezier_d(a, 1.0)), M * (a[:, M] - a[:, M - 1]), atol=1e-12)
-        np.testing.assert_allclose(np.asarray(bz.bezier_dd(a, 0.0)), M * (M - 1) * (a[:, 2] - 2 * a[:, 1] + a[:, 0]),
+        np.testing.assert_allclose(np.asarray(_bezier(a, 0.0)), a[:, 0], atol=1e-14)
+        np.testing.assert_allclose(np.asarray(_bezier(a, 1.0)), a[:, M], atol=1e-14)
+        np.testing.assert_allclose(np.asarray(_bezier_d(a, 0.0)), M * (a[:, 1] - a[:, 0]), atol=1e-12)
+        np.testing.assert_allclose(np.asarray(_bezier_d(a, 1.0)), M * (a[:, M] - a[:, M - 1]), atol=1e-12)
+        np.testing.assert_allclose(np.asarray(_bezier_dd(a, 0.0)), M * (M - 1) * (a[:, 2] - 2 * a[:, 1] + a[:, 0]),
                                    atol=1e-11)
         np.testing.assert_allclose(np.asarray(bz.derivative_coefficients(a)), M * np.diff(a, axis=-1), atol=1e-14)
 
@@ -85,8 +90,8 @@ def test_endpoint_properties():
 def test_autodiff_of_the_value_is_exact_at_the_ends():
     """The powers are built by products, so the derivative at s = 0 and 1 is finite and right."""
     alpha = jnp.asarray([0.3, -1.0, 2.0, 0.5])
-    g0 = float(jax.grad(lambda s: bz.bezier(alpha, s))(0.0))
-    g1 = float(jax.grad(lambda s: bz.bezier(alpha, s))(1.0))
+    g0 = float(jax.grad(lambda s: _bezier(alpha, s))(0.0))
+    g1 = float(jax.grad(lambda s: _bezier(alpha, s))(1.0))
     assert g0 == pytest.approx(3 * (-1.0 - 0.3), abs=1e-13)
     assert g1 == pytest.approx(3 * (0.5 - 2.0), abs=1e-13)
 
@@ -95,9 +100,9 @@ def test_constant_and_linear_coefficients_reproduce_constant_and_linear_function
     """Bernstein polynomials are a partition of unity and reproduce s (linear precision)."""
     s = jnp.asarray(S_GRID)
     for M in (1, 3, 6):
-        np.testing.assert_allclose(np.asarray(bz.bezier(np.full(M + 1, 2.5), s)), 2.5, atol=1e-13)
-        np.testing.assert_allclose(np.asarray(bz.bezier(np.arange(M + 1) / M, s)), S_GRID, atol=1e-13)
-        np.testing.assert_allclose(np.asarray(bz.bezier_d(np.arange(M + 1) / M, s)), 1.0, atol=1e-12)
+        np.testing.assert_allclose(np.asarray(_bezier(np.full(M + 1, 2.5), s)), 2.5, atol=1e-13)
+        np.testing.assert_allclose(np.asarray(_bezier(np.arange(M + 1) / M, s)), S_GRID, atol=1e-13)
+        np.testing.assert_allclose(np.asarray(_bezier_d(np.arange(M + 1) / M, s)), 1.0, atol=1e-12)
 
 
 # ---- chains ----------------------------------------------------------------------------
@@ -190,5 +195,5 @@ def test_chain_values_and_theta_derivatives():
         np.testing.assert_allclose(der[i], [P.deriv()(s) / w for P in polys], rtol=1e-10, atol=1e-10)
         np.testing.assert_allclose(dd[i], [P.deriv(2)(s) / w**2 for P in polys], rtol=1e-9, atol=1e-9)
     # d/dtheta from autodiff of the chain's value, away from the joins
-    g = jax.vmap(jax.jacfwd(lambda th: bz.chain(th, BREAKS, alphas)[0]))(jnp.asarray(thetas))
+    g = jax.jit(jax.vmap(jax.jacfwd(lambda th: bz.chain(th, BREAKS, alphas)[0])))(jnp.asarray(thetas))
     np.testing.assert_allclose(np.asarray(g), der, rtol=1e-11, atol=1e-11)

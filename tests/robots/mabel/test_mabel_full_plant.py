@@ -7,6 +7,7 @@ mirror symmetry of the relabelling, and the paper's Exp. 1 measurements (PD + fe
 tracking error of the stance motor leg shape; realised c_mt about three times the designed)."""
 from __future__ import annotations
 
+import jax
 import jax.numpy as jnp
 import numpy as np
 import pytest
@@ -179,8 +180,10 @@ def test_exact_sensing_on_the_compliant_ground_reads_predicted_rates_at_the_touc
     r = sw.Reading(q=z[:6], qd=pre, impacted=jnp.asarray(True), step=jnp.asarray(1))
     m = wk.walking_model()
     predicted = np.asarray(wk.impact(m, jnp.concatenate([c.q_prev, c.v_est]), setup.eta).z_plus[6:])
-    full = np.asarray(sw.controller(m, "iolin", setup, c, r, 0.05, predict_impact_rates=True)[0].v_est)
-    stance = np.asarray(sw.controller(m, "iolin", setup, c, r, 0.05)[0].v_est)
+    # compiled, not op by op (the controller run eagerly compiled 600 small programs)
+    ctrl = jax.jit(sw.controller, static_argnums=1, static_argnames="predict_impact_rates")
+    full = np.asarray(ctrl(m, "iolin", setup, c, r, 0.05, predict_impact_rates=True)[0].v_est)
+    stance = np.asarray(ctrl(m, "iolin", setup, c, r, 0.05)[0].v_est)
     np.testing.assert_allclose(full, predicted, rtol=1e-12, atol=1e-12)  # same map, other rounding
     np.testing.assert_array_equal(stance, np.asarray(pre))
     assert np.max(np.abs(full - np.asarray(pre))) > 0.1  # the impact changes the rates
