@@ -24,12 +24,26 @@ noted):
 * ``mabel_restricted(name)``  recomputed restricted-map (eq. 48) fixed point and eigenvalues
                               of the nominal gait (gait.mabel_poincare.fixed_point); eigenvalue
                               moduli rel 1e-7 (as above). [slow]
+* ``mabel_poincare(name)``    MABEL's maps at a shipped gait (nominal and the paper-model gaits)
+                              as ``optimize mabel`` computes them: the restricted map (eq. 48)
+                              on the gait's design model and the full map (eq. 44) under
+                              PD + feedforward, each its fixed point, Jacobian and
+                              eigenvalue moduli (rel 1e-7, as above). [slow]
+* ``imported_gait(m, g)``     a gait file of a robot read from MJCF/URDF (RABBIT's), read back
+                              against the robot file: constraints, fixed point, design figures.
+* ``imported_poincare(m, g)`` its full Poincaré Jacobian under the gait's own I/O-linearising
+                              gains, eigenvalue moduli, restricted-map eigenvalue. [slow]
+* ``imported_walk(m, g, n)``  ``walk model`` on it, n steps: the record. [slow]
+* ``imported_design(...)``    ``optimize model`` with its defaults on heron.xml (a file written
+                              for the tests): the design record; SLSQP iterates rel 1e-6 as
+                              five_link_optimize. [slow]
 * ``five_link_restricted()``  the restricted-map eigenvalue alone (the cheap default sibling of
                               five_link_poincare).
 * ``five_link_walk(c)``       3 steps of gait.walking.walk from the shipped fixed point
                               (iolin, pd): per-step z-, durations, step lengths, work, y^2.
 * ``mabel_walk(c)``           sim.mabel_walk.simulate, 1 step (first 500-sample chunk at least),
-                              nominal gait, encoders, controllers pdff / iolin: every 50th
+                              nominal gait (and paper-575 under pdff / iolin / decentralized),
+                              encoders, controllers pdff / iolin: every 50th
                               sample of logs z and u plus the last, and the final state.
 * ``seven_link_walk(n)``      sim.seven_link_contact.simulate via studies.walk_seven_link.run_walk,
                               n steps: touchdowns, final state, every 200th log sample of x, u.
@@ -138,6 +152,101 @@ def mabel_restricted(name: str = "nominal") -> dict:
     return dict(fixed_point=_a(xs), jacobian=_a(J), eigenvalue_moduli=np.abs(np.asarray(mp.eigenvalues(J))))
 
 
+def mabel_poincare(name: str) -> dict:
+    """MABEL's step-to-step maps at a shipped gait, recomputed as ``optimize mabel`` computes
+    them (walking.study.poincare: the restricted map, eq. 48, on the gait's design model, and
+    the full map, eq. 44, on the walking model under PD + feedforward): each map's fixed
+    point, Jacobian and eigenvalue moduli."""
+    import jax
+    import jax.numpy as jnp
+
+    from bipedlab.robots.mabel.walking import design as md
+    from bipedlab.robots.mabel.walking import poincare as mp
+    from bipedlab.robots.mabel.walking import stance as wk
+    from bipedlab.robots.mabel.walking import study as walk_mabel
+
+    _, gains, rec = walk_mabel.load_gait(name)
+    design = walk_mabel.design_from_record(rec)
+    m = wk.walking_model()
+    model = rec.get("design_model", "full")
+    m_zd = m if model == "full" else md.design_model(m, model)
+    vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
+    z0, x0 = md.section_state(m_zd, design)
+    def found(xs, J):  # a search that left the walking range has no finite Jacobian: recorded so
+        if not np.all(np.isfinite(np.asarray(J))):
+            return dict(fixed_point_found=False)
+        return dict(fixed_point=_a(xs), jacobian=_a(J), eigenvalue_moduli=np.abs(np.asarray(mp.eigenvalues(J))))
+
+    out = {}
+    xs, J, _ = mp.fixed_point(mp.restricted_at, x0, args=(m_zd, vc))
+    out["restricted"] = found(xs, J)
+    # the full map under PD + feedforward only, as optimize mabel: under eq. 42 at the gaits' own
+    # eps per output (0.0031 on the stance leg shape) the Newton search leaves the walking range
+    # from every one of these gaits (tried), which the stance model's 100-step walks do not
+    zs, J, _ = mp.fixed_point(mp.full_map_at("pdff"), z0, args=(m, gains, vc))
+    out["pdff"] = found(zs, J)
+    return out
+
+
+def _imported_files(model: str, gait: str):
+    from importlib import resources
+
+    here = resources.files("bipedlab.robots.imported").joinpath("data")
+    return str(here.joinpath(model)), str(here.joinpath(gait))
+
+
+def imported_gait(model: str, gait: str) -> dict:
+    """A gait file of a robot read from MJCF/URDF (the shipped RABBIT's): its constraints,
+    fixed point and stored design figures, as read back against the robot file."""
+    from bipedlab.robots.imported import study as imported_study
+
+    s, vc, z, rec = imported_study.load_gait(*_imported_files(model, gait))
+    d = {k: _a(getattr(vc, k)) for k in ("H0", "c", "alpha", "theta_plus", "theta_minus")}
+    d.update(z_minus=_a(z), design={k: v for k, v in rec["design"].items() if k not in ("stance", "swing")})
+    return d
+
+
+def imported_poincare(model: str, gait: str) -> dict:
+    """The full Poincaré Jacobian (autodiff through the hybrid flow) of an imported robot's gait
+    under its own I/O-linearising gains, at the stored fixed point; its eigenvalue moduli and
+    the restricted map's eigenvalue."""
+    import jax
+
+    from bipedlab.gait import study as hs
+    from bipedlab.gait import walking as gw
+    from bipedlab.robots.imported import study as imported_study
+
+    s, vc, z, rec = imported_study.load_gait(*_imported_files(model, gait))
+    st = s.study.stance
+    ctrl = hs.controller_of(s.study, rec, "iolin")
+    J = np.asarray(jax.jit(lambda z: gw.poincare_jacobian(vc, st, ctrl, z))(z))
+    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z[st.n:]), nodes=s.study.nodes)
+    return dict(jacobian=J, eigenvalue_moduli=np.sort(np.abs(np.linalg.eigvals(J)))[::-1],
+                restricted_eigenvalue=float(rho))
+
+
+def imported_walk(model: str, gait: str, steps: int = 3) -> dict:
+    """``walk model`` on an imported robot's gait (its record, timings left out)."""
+    from bipedlab.robots.imported import study as imported_study
+
+    rec = imported_study.walk(*_imported_files(model, gait), steps=steps)
+    rec.pop("file", None)
+    return rec
+
+
+def imported_design(model: str, stance: str, swing: str, speed: float) -> dict:
+    """``optimize model`` with its defaults (default clearance and the retry) on a robot file
+    written for the tests (tests/robots/imported/data): the design record, file path left out."""
+    import os
+
+    from bipedlab.robots.imported import study as imported_study
+
+    path = os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "robots", "imported", "data", model)
+    rec = imported_study.optimize(path, stance, swing, speed)
+    rec.pop("file", None)
+    return rec
+
+
 # ----------------------------------------------------------------------------- closed loops
 def five_link_walk(controller: str, steps: int = 3) -> dict:
     import jax
@@ -160,14 +269,14 @@ def _rows(a, every: int):
     return idx, a[idx]
 
 
-def mabel_walk(controller: str, steps: int = 1, sensing: str = "encoders") -> dict:
+def mabel_walk(controller: str, steps: int = 1, sensing: str = "encoders", gait: str = "nominal") -> dict:
     import jax.numpy as jnp
 
     from bipedlab.robots.mabel.walking import stance as wk
     from bipedlab.robots.mabel.walking import loop as sw
     from bipedlab.robots.mabel.walking import study as wm
 
-    vc, gains, rec = wm.load_gait("nominal")
+    vc, gains, rec = wm.load_gait(gait)
     setup = wm.setup_for(vc, gains, rec["design"]["period"], sensing=sensing)
     s, log = sw.simulate(wk.walking_model(), controller, setup, jnp.asarray(rec["z_plus"]), steps)
     idx, z = _rows(log["z"], 50)

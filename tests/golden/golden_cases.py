@@ -42,11 +42,26 @@ CROSS_CPU_PEAKS = (("tracking_peak_deg", 0.2, 1e-9), ("peak_torques_nm", 0.2, 1e
 #: ``rel_std`` comes from the fit's Jacobian at the iterate, rel 1e-5 (measured 1.4e-6).
 SYSID = (("*rel_error", 0.0, 1e-6), ("*rel_std", 1e-5, 1e-9))
 
+#: MABEL's gaits of the paper's design model (the design rows', Exps. 1-5's and Exp. 3's)
+PAPER_GAITS = ("paper-nominal", "paper-575", "paper-efficient", "paper-efficient-clear")
+#: the shipped RABBIT (robot file, gait file) of the imported robots
+RABBIT = ("rabbit.xml", "rabbit_0.8.json")
+
 QUANTITIES = {
     "gait_five_link_0.8": Case("five_link_gait"),
     "gait_mabel_nominal": Case("mabel_gait", ("nominal",)),
     "gait_mabel_efficient": Case("mabel_gait", ("efficient",)),
     "gait_mabel_fast": Case("mabel_gait", ("fast",)),
+    # the paper-model gaits the experiments walk (file contents: exact)
+    **{f"gait_mabel_{g.replace('-', '_')}": Case("mabel_gait", (g,)) for g in PAPER_GAITS},
+    "gait_rabbit": Case("imported_gait", RABBIT),
+    # MABEL's maps at the gaits the experiments walk: restricted (eq. 48) and full (eq. 44)
+    # under PD + feedforward
+    **{f"poincare_mabel_{g.replace('-', '_')}": Case("mabel_poincare", (g,), slow=True, special=EIG)
+       for g in ("nominal",) + PAPER_GAITS},
+    "poincare_rabbit": Case("imported_poincare", RABBIT, slow=True, special=EIG),
+    # a biped written for the tests, designed with optimize model's defaults (clearance, retry)
+    "optimize_heron": Case("imported_design", ("heron.xml", "foot_l", "foot_r", 0.8), slow=True, rtol=1e-6, atol=1e-9),
     "poincare_five_link_restricted": Case("five_link_restricted"),
     "poincare_five_link_iolin": Case("five_link_poincare", ("iolin",), slow=True, special=EIG),
     "poincare_five_link_pd": Case("five_link_poincare", ("pd",), slow=True, special=EIG),
@@ -55,6 +70,10 @@ QUANTITIES = {
     "walk_five_link_pd": Case("five_link_walk", ("pd",), slow=True),
     "walk_mabel_pdff": Case("mabel_walk", ("pdff",), rtol=CROSS_CPU_WALK, atol=1e-9),
     "walk_mabel_iolin": Case("mabel_walk", ("iolin",), slow=True, rtol=CROSS_CPU_WALK, atol=1e-9),
+    # paper-575, the gait of Exps. 1, 2, 4, 5, under each controller (stance model, encoders)
+    **{f"walk_mabel_{c}_paper_575": Case("mabel_walk", (c, 1, "encoders", "paper-575"), slow=True,
+                                         rtol=CROSS_CPU_WALK, atol=1e-9) for c in ("pdff", "iolin", "decentralized")},
+    "walk_rabbit": Case("imported_walk", RABBIT, slow=True, rtol=1e-7, atol=1e-9),
     # five steps: the program of the seven-link tests' short walks (test_walk_seven_link,
     # test_seven_link_boom, test_seven_link_contact_sequence), compiled once per run
     "walk_seven_link": Case("seven_link_walk", (5,)),
@@ -79,7 +98,7 @@ CLI = {
     **{f"cli_walk_mabel_full_{c}_{g.replace('-', '_')}": Case(
         "cli", ("walk", "mabel", "--plant", "full", "--steps", "3", "--controller", c, "--gait", g), slow=True,
         rtol=CROSS_CPU_RECORD, special=CROSS_CPU_PEAKS)
-       for c in ("pdff", "iolin", "decentralized") for g in ("nominal", "paper-nominal")},
+       for c in ("pdff", "iolin", "decentralized") for g in ("nominal", "paper-nominal", "paper-575")},
     "cli_walk_seven_link": Case("cli", ("walk", "seven-link", "--steps", "2"), slow=True),
     "cli_experiment_seven_link_free_swing": Case("cli", ("experiment", "seven-link", "free-swing")),
     "cli_run_atrias": Case("cli", ("run", "atrias", "--seconds", "1", "--controller", "bipedlab")),
