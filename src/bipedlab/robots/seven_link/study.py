@@ -326,7 +326,9 @@ def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progres
     r = sl.model()
     where = "" if setup == "planar" else f" on the {setup} setup"
     progress(f"seven-link: simulating {steps} steps with the {params} parameters{where} (first run compiles, ~30 s)")
-    res = run_walk(steps, params, sensing=sensing, setup=setup, without=without)
+    # the record is kept from host copies: slices and reads of device arrays by a walk's own
+    # counts each compiled a program of their own
+    res = jax.device_get(run_walk(steps, params, sensing=sensing, setup=setup, without=without))
     status = int(res.status)
     n = int(res.n_touchdowns)
     weight = float(sl.total_mass(r)) * sl.GRAVITY
