@@ -81,14 +81,19 @@ def _a(x):
 
 
 # ----------------------------------------------------------------------------- gait files
+def _hzd_gait(vc, z, design: dict) -> dict:
+    """A one-phase HZD gait's record: its constraints, fixed point and design figures."""
+    d = {k: _a(getattr(vc, k)) for k in ("H0", "c", "alpha", "theta_plus", "theta_minus")}
+    d["z_minus"] = _a(z)
+    d["design"] = design
+    return d
+
+
 def five_link_gait() -> dict:
     from bipedlab.gait import gaitfile
 
     vc, z, rec = gaitfile.shipped("bipedlab.robots.five_link", "five_link_0.8")
-    d = {k: _a(getattr(vc, k)) for k in ("H0", "c", "alpha", "theta_plus", "theta_minus")}
-    d["z_minus"] = _a(z)
-    d["design"] = rec["design"]
-    return d
+    return _hzd_gait(vc, z, rec["design"])
 
 
 def mabel_gait(name: str) -> dict:
@@ -102,20 +107,25 @@ def mabel_gait(name: str) -> dict:
 
 
 # ----------------------------------------------------------------------------- Poincaré
-def five_link_poincare(controller: str) -> dict:
+def _hzd_poincare(vc, st, ctrl, z, nodes: int) -> dict:
+    """A one-phase HZD gait's full Poincaré Jacobian under ``ctrl`` at z (autodiff through the
+    hybrid flow), its eigenvalue moduli (sorted) and the restricted map's eigenvalue."""
     import jax
 
     from bipedlab.gait import walking as gw
+
+    J = np.asarray(jax.jit(lambda z: gw.poincare_jacobian(vc, st, ctrl, z))(z))
+    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z[st.n:]), nodes=nodes)
+    return dict(jacobian=J, eigenvalue_moduli=np.sort(np.abs(np.linalg.eigvals(J)))[::-1],
+                restricted_eigenvalue=float(rho))
+
+
+def five_link_poincare(controller: str) -> dict:
     from bipedlab.robots.five_link import robot as five_link
     from bipedlab.robots.five_link import study as hz
 
     vc, z, _ = five_link_gait_objects()
-    st = five_link.stance()
-    ctrl = hz.CONTROLLERS[controller]
-    J = np.asarray(jax.jit(lambda z: gw.poincare_jacobian(vc, st, ctrl, z))(z))
-    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z[st.n:]), nodes=hz.NODES)
-    return dict(jacobian=J, eigenvalue_moduli=np.sort(np.abs(np.linalg.eigvals(J)))[::-1],
-                restricted_eigenvalue=float(rho))
+    return _hzd_poincare(vc, five_link.stance(), hz.CONTROLLERS[controller], z, hz.NODES)
 
 
 def five_link_restricted() -> dict:
@@ -172,6 +182,7 @@ def mabel_poincare(name: str) -> dict:
     m_zd = m if model == "full" else md.design_model(m, model)
     vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
     z0, x0 = md.section_state(m_zd, design)
+
     def found(xs, J):  # a search that left the walking range has no finite Jacobian: recorded so
         if not np.all(np.isfinite(np.asarray(J))):
             return dict(fixed_point_found=False)
@@ -201,28 +212,18 @@ def imported_gait(model: str, gait: str) -> dict:
     from bipedlab.robots.imported import study as imported_study
 
     s, vc, z, rec = imported_study.load_gait(*_imported_files(model, gait))
-    d = {k: _a(getattr(vc, k)) for k in ("H0", "c", "alpha", "theta_plus", "theta_minus")}
-    d.update(z_minus=_a(z), design={k: v for k, v in rec["design"].items() if k not in ("stance", "swing")})
-    return d
+    return _hzd_gait(vc, z, {k: v for k, v in rec["design"].items() if k not in ("stance", "swing")})
 
 
 def imported_poincare(model: str, gait: str) -> dict:
     """The full Poincaré Jacobian (autodiff through the hybrid flow) of an imported robot's gait
     under its own I/O-linearising gains, at the stored fixed point; its eigenvalue moduli and
     the restricted map's eigenvalue."""
-    import jax
-
     from bipedlab.gait import study as hs
-    from bipedlab.gait import walking as gw
     from bipedlab.robots.imported import study as imported_study
 
     s, vc, z, rec = imported_study.load_gait(*_imported_files(model, gait))
-    st = s.study.stance
-    ctrl = hs.controller_of(s.study, rec, "iolin")
-    J = np.asarray(jax.jit(lambda z: gw.poincare_jacobian(vc, st, ctrl, z))(z))
-    rho = gw.restricted_eigenvalue(vc, st, float(vc.c @ z[st.n:]), nodes=s.study.nodes)
-    return dict(jacobian=J, eigenvalue_moduli=np.sort(np.abs(np.linalg.eigvals(J)))[::-1],
-                restricted_eigenvalue=float(rho))
+    return _hzd_poincare(vc, s.study.stance, hs.controller_of(s.study, rec, "iolin"), z, s.study.nodes)
 
 
 def imported_walk(model: str, gait: str, steps: int = 3) -> dict:
