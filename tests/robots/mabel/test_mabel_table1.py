@@ -61,8 +61,14 @@ def test_impact_scaling_reports_the_model_and_paper_sensitivity():
     paper-575 is the paper's design model at the paper's step, not the paper's gait itself; measured
     -4.30 here, 0.72 of the paper's), and is asserted only to lie within a factor of four of the
     paper's, the same order of effect."""
-    r = wx.run("impact-scaling", steps=12, etas=[1.0, 0.98, 0.966], average=5, pdff_column=False)
+    r = wx.run("impact-scaling", steps=12, etas=[1.0, 0.98, 0.966], average=5, pdff_column=False,
+               gait_factor=["paper-nominal"])
     assert r["gait"] == wx.GAIT
+    # the gait as a factor: the same column on the paper model's torque optimum, its own line
+    (f,) = r["gait_factor"]
+    assert f["gait"] == "paper-nominal" and all(s is not None for s in f["steady_speed_mps"])
+    assert f["dv_deta"] == pytest.approx(wx.speed_sensitivity([1.0, 0.98, 0.966], f["steady_speed_mps"]), rel=1e-12)
+    assert f["dv_deta"] != pytest.approx(r["dv_deta"], rel=0.05)  # another gait, another slope (-7.1 vs -4.7 at 40 steps)
     speeds = [x["steady_speed_mps"] for x in r["rows"]]
     assert all(s is not None for s in speeds)
     assert r["dv_deta"] == pytest.approx(wx.speed_sensitivity([1.0, 0.98, 0.966], speeds), rel=1e-12)

@@ -298,8 +298,9 @@ def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick
 #: the gaits each experiment walks or designs (the walking experiments' constants, e.g.
 #: ``experiments.EXP3_GAIT``, ``PD_GAITS``, ``GAP_GAITS``; written out here so that listing the
 #: papers imports no simulation code; a test holds them equal)
-_GAITS = {"design": ("paper-nominal", "paper-efficient"), "nominal": ("paper-575",), "push": ("paper-575",),
-          "efficient": ("paper-efficient-clear",), "tracking": ("paper-575",), "impact-scaling": ("paper-575",),
+_GAITS = {"design": ("paper-nominal", "paper-efficient"), "nominal": ("paper-575",),
+          "push": ("paper-575", "paper-nominal", "nominal"), "efficient": ("paper-efficient-clear",),
+          "tracking": ("paper-575",), "impact-scaling": ("paper-575", "paper-nominal", "nominal"),
           "fast": ("paper-575", "fast"), "pd-gains": ("paper-nominal", "paper-efficient"), "exp4": ("paper-575",),
           "full-plant": ("paper-nominal", "paper-efficient", "paper-efficient-clear", "nominal", "efficient",
                          "paper-575")}
@@ -327,7 +328,7 @@ HZD_EXPERIMENTS = (
               f"{QUICK_WALK_STEPS} steps instead of 100", 70, 15, _GAITS["nominal"]),
     _walk_exp("push", "bipedlab experiment mabel push", 30, QUICK_PUSH_STEPS,
               f"the two pushes under PD + feedforward only, in step {QUICK_PUSH_STEP} of {QUICK_PUSH_STEPS}-step walks "
-              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 360, 15, _GAITS["push"],
+              "(instead of step 10 of 30, and the decentralised controller's pushes); no force search", 540, 15, _GAITS["push"],
               push_step=QUICK_PUSH_STEP, controllers=["pdff"], search=False, reference_from=1),
     _walk_exp("efficient", "bipedlab experiment mabel efficient", 100, QUICK_WALK_STEPS,
               f"{QUICK_WALK_STEPS} steps instead of 100", 30, 5, _GAITS["efficient"]),
@@ -338,7 +339,8 @@ HZD_EXPERIMENTS = (
     _walk_exp("impact-scaling", "bipedlab experiment mabel impact-scaling", 40, QUICK_ETA_STEPS,
               f"eta in {{{', '.join(f'{e:g}' for e in QUICK_ETAS)}}} only, {QUICK_ETA_STEPS} steps each with the speed "
               f"of the last {QUICK_ETA_AVERAGE} (instead of six values, 40 steps, the last 10); no PD + feedforward "
-              "column", 170, 15, _GAITS["impact-scaling"], etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False),
+              "column, no other gait", 320, 15, _GAITS["impact-scaling"], etas=list(QUICK_ETAS), average=QUICK_ETA_AVERAGE, pdff_column=False,
+              gait_factor=[]),
     _walk_exp("fast", "bipedlab experiment mabel fast", 100, QUICK_FAST_STEPS,
               f"the 0.7 rad lean in {QUICK_LEAN_STEPS} increments instead of 30, then {QUICK_FAST_STEPS} steps instead "
               "of 100; no comparison runs", 100, 8, _GAITS["fast"], lean_steps=QUICK_LEAN_STEPS, comparisons=False),
@@ -439,8 +441,12 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         out["push_backward_steps"] = _pushed(b) or _recovered(b, quick)
         out["push_forward_survived"] = _survived(f)
         for key, sign in (("push_force_plus_45pct_n", "plus"), ("push_force_minus_45pct_n", "minus")):
-            out[key] = (dig(push, f"force_for_{sign}_45pct_n") if "searches" in push else
+            out[key] = (Measured(dig(push, f"force_for_{sign}_45pct_n"), dict(gait_forces=_push_gait_text(push)))
+                        if "searches" in push else
                         Skip("the force search (a dozen walks per direction) runs in the full run only"))
+        if isinstance(out["push_backward_steps"], int):
+            out["push_backward_steps"] = Measured(out["push_backward_steps"],
+                                                  dict(gait_recovery=_push_recovery_text(push)))
         out.update(_full_plant_pushes(push))
     else:
         for k in ("push_forward_change", "push_forward_steps", "push_backward_change", "push_backward_steps",
@@ -462,7 +468,8 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         row = next((r for r in (imp or {}).get("rows", []) if abs(r["eta"] - eta) < 1e-9), None)
         out[f"table1_{_eta_key(eta)}"] = (row["steady_speed_mps"] if row is not None else skip)
     out["table1_dv_deta"] = (Failed("fewer than two etas walked without a fall") if imp and dig(imp, "dv_deta") is None
-                             else dig(imp, "dv_deta") if imp else skip)
+                             else Measured(dig(imp, "dv_deta"), dict(gait_slopes=_slope_gait_text(imp))) if imp
+                             else skip)
     pdg = records.get("pd-gains")
     for g, gait in zip(("nominal", "efficient"), _GAITS["pd-gains"]):
         out[f"{g}_eig_pdff_closest_gains"] = _nearest_eigenvalue(pdg, gait) if pdg else Skip("not run")
@@ -516,6 +523,47 @@ def measure_hzd(records: dict, quick: bool) -> dict:
 
 FULL_PUSH_ROWS = ("fullplant_push_force_plus_45pct_n", "fullplant_push_force_minus_45pct_n", "fullplant_push_forward_steps",
                   "fullplant_push_backward_steps", "fullplant_push_recovery_asymmetry")
+
+
+def _push_gait_text(push: dict) -> str:
+    """Exp. 2's PD + feedforward forces for +45 % / -45 % on each gait walked (experiment push's
+    searches on its gait and its ``gait_factor``), with the forward over backward ratio."""
+    rows = [(push.get("gait", "paper-575"), None, push.get("force_for_plus_45pct_n"), push.get("force_for_minus_45pct_n"))]
+    rows += [(x["gait"], x["step_length_m"], x["force_for_plus_45pct_n"], x["force_for_minus_45pct_n"])
+             for x in push.get("gait_factor") or []]
+    if len(rows) < 2:
+        return "no other gait was searched"
+    parts = [f"{g}{'' if step is None else f' ({step:.3f} m steps)'} {p:+.0f} / {m:+.0f} N ({abs(p / m):.2f})"
+             for g, step, p, m in rows]
+    fw, bw = push["paper"]["forward"]["force_n"], push["paper"]["backward"]["force_n"]
+    return ("forward / backward force by gait: " + ", ".join(parts)
+            + f" against the paper's {fw:+.0f} / {bw:+.0f} N ({abs(fw / bw):.2f})")
+
+
+def _push_recovery_text(push: dict) -> str:
+    """The steps back within 2 % after the searched +45 % / -45 % pushes on each gait walked."""
+    rows = []
+    if len(push.get("searches") or []) >= 2:
+        plus, minus = push["searches"][:2]
+        rows.append((push.get("gait", "paper-575"), plus.get("steps_to_recover"), minus.get("steps_to_recover")))
+    rows += [(x["gait"], x["steps_to_recover_plus"], x["steps_to_recover_minus"]) for x in push.get("gait_factor") or []]
+    if len(rows) < 2:
+        return "the pushes were not searched on other gaits (--quick)"
+    return ("after the searched +45 % / -45 % pushes, back within 2 % after " + ", ".join(
+        f"{'never' if a is None else a} / {'never' if b is None else b} steps on {g}" for g, a, b in rows)
+        + f" (paper: {push['paper']['forward']['steps_to_recover']} / {push['paper']['backward']['steps_to_recover']})")
+
+
+def _slope_gait_text(imp: dict) -> str:
+    """dv/deta under the compliant-HZD controller on each gait experiment impact-scaling walked."""
+    rows = [(imp.get("gait", "paper-575"), imp.get("dv_deta"))] + [(x["gait"], x["dv_deta"])
+                                                                   for x in imp.get("gait_factor") or []]
+    if len(rows) < 2:
+        return "no other gait was walked (--quick)"
+    slopes, paper = [v for _, v in rows if v is not None], imp["dv_deta_paper"]
+    where = "within" if slopes and min(slopes) <= paper <= max(slopes) else "outside"
+    return ("by gait: " + ", ".join(f"{g} {'n/a' if v is None else f'{v:+.2f}'}" for g, v in rows)
+            + f"; the paper's {paper:+.2f} lies {where} that spread")
 
 
 def _full_plant_pushes(push: dict) -> dict:

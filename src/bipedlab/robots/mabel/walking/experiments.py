@@ -15,6 +15,9 @@ names its gait.
 - ``tracking`` (Exps. 4-5): the nominal gait under PD + feedforward, I/O linearisation with
   corrections, and its decentralised form; tracking errors and torques.
 - ``impact-scaling`` (Section VI-B, Table I): steady-state speed for eta = 1.0 ... 0.96.
+
+``push`` and ``impact-scaling`` also walk :data:`FACTOR_GAITS` beside :data:`GAIT` (the force
+searches; the slope dv/deta): the gait as a measured factor of those departures.
 - ``fast`` (Exp. 5): the nominal constraints with the torso leaned forward step by step (the
   experimenters' procedure) under the compliant-HZD controller, encoders read through the
   model-based velocity observer, 100 steps after the lean.
@@ -56,6 +59,10 @@ ETAS = (1.0, 0.99, 0.98, 0.97, 0.966, 0.96)
 PUSHES = (78.0, -71.0)
 #: pushes the decentralised HZD controller survives in this model (N, + forward)
 HZD_PUSHES = (30.0, -40.0)
+#: the gaits walked beside GAIT as a factor of Exp. 2's forces and Table I's slope: the paper
+#: design model's torque optimum (0.457 m steps) and the full design model's (0.656 m); GAIT
+#: takes the paper's 0.575 m step between them
+FACTOR_GAITS = ("paper-nominal", "nominal")
 PUSH_STEP = catalog.PUSH_STEP
 SWEEP_SPEEDS = (0.6, 0.7, 0.8, 0.9, 1.0, 1.1, 1.2, 1.3, 1.4, 1.5, 1.6)
 
@@ -170,19 +177,19 @@ def _push_row(r, controller, force, push_step, ref, direction):
 
 
 def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progress=None, tol=SEARCH_TOL,
-                max_walks=SEARCH_WALKS, plant="stance"):
+                max_walks=SEARCH_WALKS, plant="stance", gait=GAIT):
     """The force (N, + forward) over the second half of step ``push_step`` whose peak speed
     change is ``target`` (fraction of ``ref``) under ``controller`` on ``plant``, by
     :func:`bracket_force` on walks of the pushed step and SEARCH_AFTER more (a walk that falls
     counts as beyond the target unless the steps it completed already reached it); then one
     walk of ``steps`` at that force for the recovery (``steps_to_recover_5pct``, and
     ``steps_to_recover``: first back within 2 %, as the rows at the paper's forces). Returns the
-    search record."""
+    search record. ``gait``: the gait walked (default :data:`GAIT`)."""
     direction = np.sign(target)
     seen = {}
 
     def change_of(force):
-        r = _walk(GAIT, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step), plant=plant)
+        r = _walk(gait, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step), plant=plant)
         c = peak_change(r["speed_per_step"], push_step, ref, direction)
         seen[float(force)] = (c, r["fell"], r["steps_completed"])
         # a walk that falls short of the target before its fall tells nothing of the change the
@@ -190,7 +197,7 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
         return None if r["fell"] and (c is None or abs(c - target) > tol) else c
 
     force, change, walks, ok = bracket_force(change_of, target, f0, tol, max_walks)
-    r = _walk(GAIT, controller, steps, progress, push=(force, push_step), plant=plant)
+    r = _walk(gait, controller, steps, progress, push=(force, push_step), plant=plant)
     row = _push_row(r, controller, force, push_step, ref, direction)
     row["steps_to_recover"] = None if r["fell"] else _recovery(r["speed_per_step"], push_step, ref)[1]
     return dict(target_change=target, converged=ok, tolerance=tol, walks=[
@@ -199,7 +206,7 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
 
 
 def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decentralized"), search=True,
-         reference_from=5, full_plant=True):
+         reference_from=5, full_plant=True, gait_factor=FACTOR_GAITS):
     """Exp. 2. The forces that change the speed by TARGET_CHANGES (+45 % / -45 %, as the paper's
     pushes did on the robot) over the second half of step PUSH_STEP, searched from the paper's
     estimates under PD + feedforward, the experiment's controller (``force_for_plus_45pct_n``,
@@ -225,7 +232,11 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     decentralised controller; ``search`` False leaves out the force searches (the record then
     has no ``force_for_*`` keys); ``reference_from``, the first step of the unpushed speed's
     mean; ``full_plant`` False leaves out the 13-DoF searches. The searches need both
-    controllers."""
+    controllers.
+
+    With ``search``, the PD + feedforward searches again on each of ``gait_factor`` (default
+    :data:`FACTOR_GAITS`; record ``gait_factor``, :func:`push_on_gait`): the gait as a factor of
+    the forces and the recovery."""
     if search and set(controllers) != {"pdff", "decentralized"}:
         raise ValueError("push: the force searches walk both PD + feedforward and the decentralised controller")
     steps = steps or 30
@@ -269,7 +280,26 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
                searches=searches, at_pdff_forces=at_pdff)
     if full_plant:
         rec["full_plant"] = push_full_plant(steps, push_step, reference_from, progress)
+    rec["gait_factor"] = [push_on_gait(g, steps, push_step, reference_from, progress) for g in gait_factor]
     return rec
+
+
+def push_on_gait(gait, steps, push_step=PUSH_STEP, reference_from=5, progress=None) -> dict:
+    """Exp. 2's two PD + feedforward force searches (stance model, encoders) on ``gait``: its
+    unpushed speed and mean step (steps ``reference_from`` on), the forces for +45 % and -45 %,
+    the changes reached and the steps until back within 2 % (``steps_to_recover``) and within
+    RECOVERY_TOL for good (``steps_to_recover_5pct``)."""
+    say = progress or (lambda msg: None)
+    base = _walk(gait, "pdff", steps, progress)
+    ref = float(np.mean(base["speed_per_step"][reference_from:]))
+    out = dict(gait=gait, unpushed_speed_mps=ref, step_length_m=float(np.mean(base["step_lengths_m"][reference_from:])))
+    for target, f0, sign in zip(TARGET_CHANGES, PUSHES, ("plus", "minus")):
+        say(f"push: searching the force for {100 * target:+.0f} % under pdff on {gait}")
+        x = search_push("pdff", target, f0, ref, steps, push_step, progress, gait=gait)
+        out.update({f"force_for_{sign}_45pct_n": x["force_n"], f"speed_change_at_{sign}_force": x["speed_change"],
+                    f"steps_to_recover_{sign}": x["steps_to_recover"],
+                    f"steps_to_recover_5pct_{sign}": x["steps_to_recover_5pct"], f"converged_{sign}": x["converged"]})
+    return out
 
 
 def push_full_plant(steps, push_step=PUSH_STEP, reference_from=5, progress=None) -> dict:
@@ -358,13 +388,16 @@ def paper_speed_sensitivity() -> float:
     return speed_sensitivity(list(table), list(table.values()))
 
 
-def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS, pdff_column=True):
+def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS, pdff_column=True,
+                   gait_factor=FACTOR_GAITS):
     """Table I is a simulation of the nominal fixed point (:data:`GAIT`): here under the compliant-HZD
     controller with exact sensing (the model's own closed loop), and beside it (``pdff_column``)
     PD + feedforward with encoders (the experiment's controller). The steady speed is the mean
     over the last ``average`` steps. ``dv_deta``: the speed's sensitivity to eta (m/s per unit
     eta, :func:`speed_sensitivity` through the etas run), beside the paper's
-    (``dv_deta_paper``, the same fit through Table I's six rows)."""
+    (``dv_deta_paper``, the same fit through Table I's six rows). ``gait_factor``: gaits on which
+    the compliant-HZD column is walked again (default :data:`FACTOR_GAITS`; record
+    ``gait_factor``: per gait its steady speeds and dv_deta), the gait as a factor of the slope."""
     steps = steps or 40
     columns = (("", "iolin", "ideal"), ("pdff_", "pdff", "encoders"))[: 2 if pdff_column else 1]
     rows = []
@@ -386,6 +419,15 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS
                dv_deta_paper_same_etas=speed_sensitivity(e, [x["paper_speed_mps"] for x in rows]))
     if pdff_column:
         rec["pdff_dv_deta"] = speed_sensitivity(e, [x["pdff_steady_speed_mps"] for x in rows])
+    factor = []
+    for gait in gait_factor:
+        speeds = []
+        for eta in etas:
+            r = _walk(gait, "iolin", steps, progress, eta=eta, sensing="ideal")
+            sp = r["speed_per_step"]
+            speeds.append(float(np.mean(sp[-average:])) if not r["fell"] and len(sp) >= average else None)
+        factor.append(dict(gait=gait, steady_speed_mps=speeds, dv_deta=speed_sensitivity(e, speeds)))
+    rec["gait_factor"] = factor
     return rec
 
 
@@ -909,6 +951,10 @@ def summary(r: dict) -> str:
         for x in r["runs"]:
             lines.append(f"{x['controller']:>13} push {x['force_n']:+.0f} N at step {x['step']} (unpushed "
                          f"{x['unpushed_speed_mps']:.3f} m/s): speed change {pct(x['speed_change'])}, {end(x)}")
+        for x in r.get("gait_factor", []):
+            lines.append(f"{'pdff':>13} on {x['gait']} ({x['step_length_m']:.3f} m steps, {x['unpushed_speed_mps']:.3f} m/s):"
+                         f" {x['force_for_plus_45pct_n']:+.1f} N / {x['force_for_minus_45pct_n']:+.1f} N, back within 2 % "
+                         f"after {x['steps_to_recover_plus']} / {x['steps_to_recover_minus']} steps")
         lines.append("paper: +45 % recovering over ~10 steps (78 N), -45 % over ~3 (71 N)")
         return "\n".join(lines)
     if name == "tracking":
@@ -938,6 +984,9 @@ def summary(r: dict) -> str:
             lines.append(f"dv/deta (least-squares line, m/s per unit eta): HZD {slope(r['dv_deta'])}"
                          + (f", PD+FF {slope(r['pdff_dv_deta'])}" if "pdff_dv_deta" in r else "")
                          + f"; paper (Table I) {slope(r['dv_deta_paper'])}")
+            for x in r.get("gait_factor", []):
+                lines.append(f"  HZD on {x['gait']}: {slope(x['dv_deta'])} (speeds "
+                             + ", ".join("fell" if v is None else f"{v:.3f}" for v in x["steady_speed_mps"]) + ")")
         return "\n".join(lines)
     if name == "pd-gains":
         return summary_pd_gains(r)

@@ -1,0 +1,93 @@
+"""The gait as a measured factor of Exp. 2's forces and recovery and of Table I's slope (HZD
+paper, Secs. V-B and VI-B): the report's rows cite, from stand-in records of experiments push
+and impact-scaling, each gait's forces, force ratio, recovery and slope, and say whether the
+paper's slope lies within the gaits' spread."""
+from __future__ import annotations
+
+import pytest
+
+from bipedlab.report import Measured, values
+from bipedlab.robots.mabel import reproduce as R
+from bipedlab.robots.mabel.walking import experiments as wx
+
+
+def _search(force, back):
+    return dict(force_n=force, steps_to_recover=back)
+
+
+def _push(factor=True):
+    rec = dict(gait=wx.GAIT, force_for_plus_45pct_n=140.0, force_for_minus_45pct_n=-70.0,
+               searches=[_search(140.0, 7), _search(-70.0, None)],
+               paper=dict(forward=dict(force_n=78, steps_to_recover=10), backward=dict(force_n=-71, steps_to_recover=3)),
+               runs=[dict(controller="pdff", force_n=78.0, steps_to_recover=8, peak_speed_change=0.27, fell=False),
+                     dict(controller="pdff", force_n=-71.0, steps_to_recover=7, peak_speed_change=-0.45, fell=False)])
+    if factor:
+        rec["gait_factor"] = [dict(gait="paper-nominal", step_length_m=0.457, force_for_plus_45pct_n=135.0,
+                                   force_for_minus_45pct_n=-81.0, steps_to_recover_plus=11, steps_to_recover_minus=11),
+                              dict(gait="nominal", step_length_m=0.656, force_for_plus_45pct_n=206.0,
+                                   force_for_minus_45pct_n=-103.0, steps_to_recover_plus=2, steps_to_recover_minus=3)]
+    return rec
+
+
+def _impact(slopes=(-7.09, -4.61)):
+    return dict(gait=wx.GAIT, dv_deta=-4.65, dv_deta_paper=-5.96, rows=[],
+                gait_factor=[dict(gait=g, dv_deta=v) for g, v in zip(wx.FACTOR_GAITS, slopes)])
+
+
+def test_push_texts_give_each_gaits_forces_ratio_and_recovery():
+    text = R._push_gait_text(_push())
+    assert f"{wx.GAIT} +140 / -70 N (2.00)" in text
+    assert "paper-nominal (0.457 m steps) +135 / -81 N (1.67)" in text and "nominal (0.656 m steps) +206 / -103 N (2.00)" in text
+    assert text.endswith("against the paper's +78 / -71 N (1.10)")
+    rec = R._push_recovery_text(_push())
+    assert f"7 / never steps on {wx.GAIT}" in rec and "11 / 11 steps on paper-nominal" in rec and "2 / 3 steps on nominal" in rec
+    assert rec.endswith("(paper: 10 / 3)")
+    assert R._push_gait_text(_push(factor=False)) == "no other gait was searched"
+
+
+def test_the_slope_text_says_whether_the_papers_slope_lies_within_the_gaits_spread():
+    assert R._slope_gait_text(_impact()).endswith("the paper's -5.96 lies within that spread")
+    assert R._slope_gait_text(_impact((-4.5, -4.61))).endswith("the paper's -5.96 lies outside that spread")
+    assert f"{wx.GAIT} -4.65, paper-nominal -7.09, nominal -4.61" in R._slope_gait_text(_impact())
+    assert R._slope_gait_text(dict(_impact(), gait_factor=[])) == "no other gait was walked (--quick)"
+
+
+@pytest.mark.parametrize("factor", [True, False], ids=["full", "no factor"])
+def test_the_rows_render_from_the_records(factor):
+    out = R.measure_hzd({"push": _push(factor), "impact-scaling": _impact() if factor else dict(_impact(), gait_factor=[])},
+                        quick=False)
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    for rid in ("push_force_plus_45pct_n", "push_force_minus_45pct_n", "push_backward_steps", "table1_dv_deta"):
+        m = out[rid]
+        assert isinstance(m, Measured), rid
+        text = values.render(rows[rid]["departs_why"], dict(m.facts, value=m.value), rid)
+        assert "{" not in text and "}" not in text, text
+        if rid in ("push_force_plus_45pct_n", "push_backward_steps"):
+            assert "not found" in text, text
+        if factor:
+            assert "paper-nominal" in text and "nominal" in text, text
+    assert out["table1_dv_deta"].value == -4.65 and out["push_backward_steps"].value == 7
+
+
+def test_push_on_gait_searches_both_ways_on_that_gait(monkeypatch):
+    """push_on_gait's record from its walks (stand-ins): the unpushed speed and step over the
+    steps from ``reference_from`` on, and each direction's search on the gait it was given."""
+    walked, searched = [], []
+
+    def walk(gait, controller, steps, progress, **kw):
+        walked.append((gait, controller, steps, kw))
+        return dict(speed_per_step=[0.5] * 5 + [0.8] * 25, step_lengths_m=[0.3] * 5 + [0.46] * 25)
+
+    def search(controller, target, f0, ref, steps, push_step, progress, gait):
+        searched.append((controller, target, f0, ref, gait))
+        return dict(force_n=2 * f0, speed_change=target, steps_to_recover=4, steps_to_recover_5pct=3, converged=True)
+
+    monkeypatch.setattr(wx, "_walk", walk)
+    monkeypatch.setattr(wx, "search_push", search)
+    r = wx.push_on_gait("paper-nominal", 30)
+    assert walked == [("paper-nominal", "pdff", 30, {})]
+    assert searched == [("pdff", 0.45, 78.0, pytest.approx(0.8), "paper-nominal"),
+                        ("pdff", -0.45, -71.0, pytest.approx(0.8), "paper-nominal")]
+    assert r["unpushed_speed_mps"] == pytest.approx(0.8) and r["step_length_m"] == pytest.approx(0.46)
+    assert r["force_for_plus_45pct_n"] == 156.0 and r["force_for_minus_45pct_n"] == -142.0
+    assert r["steps_to_recover_plus"] == r["steps_to_recover_minus"] == 4 and r["converged_minus"] is True
