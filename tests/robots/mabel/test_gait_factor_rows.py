@@ -1,7 +1,8 @@
-"""The gait as a measured factor of Exp. 2's forces and recovery and of Table I's slope (HZD
-paper, Secs. V-B and VI-B): the report's rows cite, from stand-in records of experiments push
-and impact-scaling, each gait's forces, force ratio, recovery and slope, and say whether the
-paper's slope lies within the gaits' spread."""
+"""Measured factors of HZD departures in the report's rows: the gait, of Exp. 2's forces and
+recovery and of Table I's slope (Secs. V-B, VI-B: each gait's forces, force ratio, recovery and
+slope, and whether the paper's slope lies within the gaits' spread, from stand-in records of
+experiments push and impact-scaling); the design model, of the spring's share of the negative
+work (Sec. III-E: the full design model's shipped gaits beside the paper model's)."""
 from __future__ import annotations
 
 import pytest
@@ -91,3 +92,24 @@ def test_push_on_gait_searches_both_ways_on_that_gait(monkeypatch):
     assert r["unpushed_speed_mps"] == pytest.approx(0.8) and r["step_length_m"] == pytest.approx(0.46)
     assert r["force_for_plus_45pct_n"] == 156.0 and r["force_for_minus_45pct_n"] == -142.0
     assert r["steps_to_recover_plus"] == r["steps_to_recover_minus"] == 4 and r["converged_minus"] is True
+
+
+def test_the_spring_share_rows_cite_the_full_design_models_gaits():
+    """The design model as a factor of the spring's share of the negative work (Sec. III-E):
+    the shipped full-design-model gaits' shares, read from their files, beside the paper
+    model's in the rows' texts."""
+    full = R.full_model_gaits()
+    assert set(full) == {"nominal", "efficient"}
+    for g, x in full.items():
+        assert x["gait"] == R.FULL_MODEL_GAITS[g] and 0.0 < x["negative_work_fraction_spring"] <= 1.0
+    des = {"nominal": dict(negative_work_fraction_spring=0.73), "efficient": dict(negative_work_fraction_spring=0.68),
+           "full_model": full}
+    out = R.measure_hzd({"design": des}, quick=False)
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    for g in ("nominal", "efficient"):
+        rid = f"{g}_negative_work_fraction_spring"
+        m = out[rid]
+        assert m.value == des[g]["negative_work_fraction_spring"]
+        text = values.render(rows[rid]["departs_why"], dict(m.facts, value=m.value), rid)
+        share = f"{full[g]['negative_work_fraction_spring']:.0%}"
+        assert f"the same cost's gait {full[g]['gait']} (" in text and text.endswith(f"gives the spring {share}."), text

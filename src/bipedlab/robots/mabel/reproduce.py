@@ -265,7 +265,37 @@ def _designs(args, out, progress):
             (("eigenvalues_hzd", "restricted map"), ("eigenvalues_pdff", "PD + FF, full map")) if rec[g].get(key)}
     if out and eigs:
         rec["eigenvalue_figure"] = eigenvalue_figure(eigs, f"{out}/poincare_eigenvalues.png")
+    rec["full_model"] = full_model_gaits()
     return rec
+
+
+#: the shipped gaits designed on the full design model (friction and spring damping in the zero
+#: dynamics: ``optimize mabel --design-model full``), the same costs as paper-nominal / paper-efficient
+FULL_MODEL_GAITS = {"nominal": "nominal", "efficient": "efficient"}
+
+
+def full_model_gaits() -> dict:
+    """Designed figures of the full design model's torque and c_mt gaits (read from their gait
+    files): the design model as a factor of the design rows (step, c_mt, the spring's share of
+    the negative work)."""
+    from bipedlab.robots.mabel.walking import study as wm
+
+    out = {}
+    for name, gait in FULL_MODEL_GAITS.items():
+        d = wm.load_gait(gait)[2]["design"]
+        out[name] = dict(gait=gait, step_length_m=d["step_length"], cmt=d["cmt"],
+                         negative_work_fraction_spring=d["negative_work_fraction_spring"])
+    return out
+
+
+def _full_model_share(des: dict, g: str) -> str:
+    """The spring's share on the full design model's gait of the same cost, for the row's text."""
+    x = (des.get("full_model") or {}).get(g)
+    if x is None:
+        return "the full design model's gait was not read"
+    return (f"on the full design model (friction and spring damping in the zero dynamics) the same cost's gait "
+            f"{x['gait']} ({x['step_length_m']:.3f} m steps, designed c_mt {x['cmt']:.3f}) gives the spring "
+            f"{x['negative_work_fraction_spring']:.0%}")
 
 
 def _wx(name):
@@ -298,7 +328,7 @@ def _walk_exp(name, command, full_steps, quick_steps, reduction, expected, quick
 #: the gaits each experiment walks or designs (the walking experiments' constants, e.g.
 #: ``experiments.EXP3_GAIT``, ``PD_GAITS``, ``GAP_GAITS``; written out here so that listing the
 #: papers imports no simulation code; a test holds them equal)
-_GAITS = {"design": ("paper-nominal", "paper-efficient"), "nominal": ("paper-575",),
+_GAITS = {"design": ("paper-nominal", "paper-efficient", "nominal", "efficient"), "nominal": ("paper-575",),
           "push": ("paper-575", "paper-nominal", "nominal"), "efficient": ("paper-efficient-clear",),
           "tracking": ("paper-575",), "impact-scaling": ("paper-575", "paper-nominal", "nominal"),
           "fast": ("paper-575", "fast"), "pd-gains": ("paper-nominal", "paper-efficient"), "exp4": ("paper-575",),
@@ -419,6 +449,9 @@ def measure_hzd(records: dict, quick: bool) -> dict:
         for k in ("speed_mps", "step_length_m", "cmt", "negative_work_fraction_spring", "eig_hzd", "eig_pdff"):
             if (g, k) != ("efficient", "step_length_m"):  # the paper gives no step for the c_mt gait
                 out[f"{g}_{k}"] = dig(d, k) if d is not None else Skip("not run")
+        if d is not None:
+            out[f"{g}_negative_work_fraction_spring"] = Measured(d["negative_work_fraction_spring"],
+                                                                 dict(full_model=_full_model_share(des, g)))
     out["nominal_torso_travel_deg"] = dig(des.get("nominal"), "torso_travel_deg") if des else Skip("not run")
     for k in (1, 2):
         out[f"nominal_eig_hzd_minor_{k}"] = _minor_eigenvalue(des.get("nominal"), k) if des else Skip("not run")
