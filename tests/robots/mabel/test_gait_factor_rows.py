@@ -113,3 +113,35 @@ def test_the_spring_share_rows_cite_the_full_design_models_gaits():
         text = values.render(rows[rid]["departs_why"], dict(m.facts, value=m.value), rid)
         share = f"{full[g]['negative_work_fraction_spring']:.0%}"
         assert f"the same cost's gait {full[g]['gait']} (" in text and text.endswith(f"gives the spring {share}."), text
+
+
+def test_exp3_against_exp1_cites_the_designed_change():
+    """The design gap as the factor of Exp. 3's c_mt against Exp. 1's on the 13-DoF plant: the
+    row cites both gaits' designed c_mt and their relative change beside the realised one."""
+    def run(cmt, designed, speed):
+        return dict(fell=False, cmt=cmt, cmt_designed=designed, cmt_ratio=cmt / designed, speed_mps=speed,
+                    tracking_rms_deg=dict(mLS_st=6.8, Tor=0.1))
+
+    runs = {"paper-nominal": run(0.142, 0.0617, 0.873), R.EXP3_GAIT: run(0.090, 0.0410, 0.916)}
+    out = R.measure_hzd({"full-plant": dict(runs=runs)}, quick=False)
+    rid = "fullplant_exp3_vs_exp1_cmt_change"
+    m = out[rid]
+    assert m.value == pytest.approx(0.090 / 0.142 - 1) and m.facts["designed_change"] == pytest.approx(0.0410 / 0.0617 - 1)
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    text = values.render(rows[rid]["departs_why"], dict(m.facts, value=m.value), rid)
+    assert "differ by -34% (0.0410 against 0.0617)" in text and "walk 0.916 and 0.873 m/s" in text, text
+
+
+def test_the_13_dof_asymmetry_row_cites_each_gaits_recovery():
+    def search(force, back):
+        return dict(force_n=force, speed_change=0.45 if force > 0 else -0.45, converged=True, fell=False,
+                    steps_to_recover=back, steps_to_recover_5pct=back - 1, speed_per_step=[0.8] * 30, step=10)
+
+    push = dict(_push(), full_plant=dict(searches=[search(166.0, 7), search(-90.0, 7)]))
+    out = R._full_plant_pushes(push)
+    rid = R.FULL_PUSH_ROWS[4]
+    m = out[rid]
+    assert m.value == 0
+    rows = {r["id"]: r for r in values.load(R.DATA / "paper_hzd.json")["rows"]}
+    text = values.render(rows[rid]["departs_why"], dict(m.facts, value=m.value), rid)
+    assert "11 / 11 steps on paper-nominal" in text and "2 / 3 steps on nominal" in text, text

@@ -540,8 +540,10 @@ def measure_hzd(records: dict, quick: bool) -> dict:
             "the " + " and the ".join(g for g, x in (("paper-nominal", n), (EXP3_GAIT, e)) if x["fell"])
             + " gait fell on the 13-DoF plant: a fallen run has no c_mt (see experiment full-plant)")
     else:
-        out["fullplant_exp3_vs_exp1_cmt_change"] = Measured(e["cmt"] / n["cmt"] - 1.0, dict(realised_exp1=n["cmt"],
-                                                                                             realised_exp3=e["cmt"]))
+        out["fullplant_exp3_vs_exp1_cmt_change"] = Measured(e["cmt"] / n["cmt"] - 1.0, dict(
+            realised_exp1=n["cmt"], realised_exp3=e["cmt"], designed_exp1=n["cmt_designed"],
+            designed_exp3=e["cmt_designed"], designed_change=e["cmt_designed"] / n["cmt_designed"] - 1.0,
+            speed_exp1=n["speed_mps"], speed_exp3=e["speed_mps"]))
     _headline(records.get("full-plant"), quick, out)
     fast = records.get("fast")
     if fast and fast.get("fell"):  # a fallen walk sustains no speed
@@ -628,7 +630,7 @@ def _full_plant_pushes(push: dict) -> dict:
                                         "fullplant_push_backward_steps)")
     else:
         f, b = back[FULL_PUSH_ROWS[2]], back[FULL_PUSH_ROWS[3]]
-        out[FULL_PUSH_ROWS[4]] = Measured(f - b, dict(forward=f, backward=b))
+        out[FULL_PUSH_ROWS[4]] = Measured(f - b, dict(forward=f, backward=b, gait_recovery=_push_recovery_text(push)))
     return out
 
 

@@ -15,9 +15,6 @@ names its gait.
 - ``tracking`` (Exps. 4-5): the nominal gait under PD + feedforward, I/O linearisation with
   corrections, and its decentralised form; tracking errors and torques.
 - ``impact-scaling`` (Section VI-B, Table I): steady-state speed for eta = 1.0 ... 0.96.
-
-``push`` and ``impact-scaling`` also walk :data:`FACTOR_GAITS` beside :data:`GAIT` (the force
-searches; the slope dv/deta): the gait as a measured factor of those departures.
 - ``fast`` (Exp. 5): the nominal constraints with the torso leaned forward step by step (the
   experimenters' procedure) under the compliant-HZD controller, encoders read through the
   model-based velocity observer, 100 steps after the lean.
@@ -32,6 +29,9 @@ searches; the slope dv/deta): the gait as a measured factor of those departures.
 - ``exp4`` (Exp. 4): the nominal gait under the compliant-HZD controller (I/O linearisation with
   corrections), 14-bit encoders at 1 kHz, with the experiment's torque saturation (6 N m leg
   angle, 10 N m leg shape), and the same run at the drivetrain's limits.
+
+``push`` and ``impact-scaling`` also walk :data:`FACTOR_GAITS` beside :data:`GAIT` (the force
+searches; the slope dv/deta): the gait as a measured factor of those departures.
 """
 from __future__ import annotations
 
