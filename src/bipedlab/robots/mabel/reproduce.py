@@ -563,7 +563,7 @@ FULL_PUSH_ROWS = ("fullplant_push_force_plus_45pct_n", "fullplant_push_force_min
 def _push_gait_text(push: dict) -> str:
     """Exp. 2's PD + feedforward forces for +45 % / -45 % on each gait walked (experiment push's
     searches on its gait and its ``gait_factor``), with the forward over backward ratio."""
-    rows = [(push.get("gait", "paper-575"), None, push.get("force_for_plus_45pct_n"), push.get("force_for_minus_45pct_n"))]
+    rows = [(push["gait"], None, push.get("force_for_plus_45pct_n"), push.get("force_for_minus_45pct_n"))]
     rows += [(x["gait"], x["step_length_m"], x["force_for_plus_45pct_n"], x["force_for_minus_45pct_n"])
              for x in push.get("gait_factor") or []]
     if len(rows) < 2:
@@ -580,7 +580,7 @@ def _push_recovery_text(push: dict) -> str:
     rows = []
     if len(push.get("searches") or []) >= 2:
         plus, minus = push["searches"][:2]
-        rows.append((push.get("gait", "paper-575"), plus.get("steps_to_recover"), minus.get("steps_to_recover")))
+        rows.append((push["gait"], plus.get("steps_to_recover"), minus.get("steps_to_recover")))
     rows += [(x["gait"], x["steps_to_recover_plus"], x["steps_to_recover_minus"]) for x in push.get("gait_factor") or []]
     if len(rows) < 2:
         return "the pushes were not searched on other gaits (--quick)"
@@ -591,7 +591,7 @@ def _push_recovery_text(push: dict) -> str:
 
 def _slope_gait_text(imp: dict) -> str:
     """dv/deta under the compliant-HZD controller on each gait experiment impact-scaling walked."""
-    rows = [(imp.get("gait", "paper-575"), imp.get("dv_deta"))] + [(x["gait"], x["dv_deta"])
+    rows = [(imp["gait"], imp.get("dv_deta"))] + [(x["gait"], x["dv_deta"])
                                                                    for x in imp.get("gait_factor") or []]
     if len(rows) < 2:
         return "no other gait was walked (--quick)"

@@ -71,6 +71,18 @@ def _walk(gait, controller, steps, progress, **kw):
     return wm.walk(gait, controller, steps, progress=progress, **kw)
 
 
+def _mean_speed(r, first: int) -> float:
+    """A walk's mean step speed from step ``first`` on (the unpushed reference of a push)."""
+    return float(np.mean(r["speed_per_step"][first:]))
+
+
+def _steady_speed(r, average: int):
+    """A walk's steady speed, the mean of its last ``average`` steps; None after a fall or with
+    fewer steps."""
+    sp = r["speed_per_step"]
+    return float(np.mean(sp[-average:])) if not r["fell"] and len(sp) >= average else None
+
+
 def _recovery(speeds, push_step, reference, tol=0.02):
     """(peak relative change after the push, steps until within tol of reference)."""
     after = np.asarray(speeds[push_step:])
@@ -243,7 +255,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     refs = {}
     for controller in controllers:
         base = _walk(GAIT, controller, steps, progress)
-        refs[controller] = float(np.mean(base["speed_per_step"][reference_from:]))
+        refs[controller] = _mean_speed(base, reference_from)
     paper = dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
                  backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3))
     runs = []
@@ -291,7 +303,7 @@ def push_on_gait(gait, steps, push_step=PUSH_STEP, reference_from=5, progress=No
     RECOVERY_TOL for good (``steps_to_recover_5pct``)."""
     say = progress or (lambda msg: None)
     base = _walk(gait, "pdff", steps, progress)
-    ref = float(np.mean(base["speed_per_step"][reference_from:]))
+    ref = _mean_speed(base, reference_from)
     out = dict(gait=gait, unpushed_speed_mps=ref, step_length_m=float(np.mean(base["step_lengths_m"][reference_from:])))
     for target, f0, sign in zip(TARGET_CHANGES, PUSHES, ("plus", "minus")):
         say(f"push: searching the force for {100 * target:+.0f} % under pdff on {gait}")
@@ -308,7 +320,7 @@ def push_full_plant(steps, push_step=PUSH_STEP, reference_from=5, progress=None)
     searched from the paper's forces PUSHES (its estimates for its own model), each with its
     recovery."""
     base = _walk(GAIT, "pdff", steps, progress, plant="full")
-    ref = float(np.mean(base["speed_per_step"][reference_from:]))
+    ref = _mean_speed(base, reference_from)
     say = progress or (lambda msg: None)
     searches = []
     for target, f0 in zip(TARGET_CHANGES, PUSHES):
@@ -405,10 +417,8 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS
         row = dict(eta=eta, paper_speed_mps=wm.PAPER["impact_scaling"][eta])
         for key, c, sensing in columns:
             r = _walk(GAIT, c, steps, progress, eta=eta, sensing=sensing)
-            sp = r["speed_per_step"]
-            ok = not r["fell"] and len(sp) >= average
             row.update({f"{key}fell": r["fell"], f"{key}steps_completed": r["steps_completed"],
-                        f"{key}steady_speed_mps": float(np.mean(sp[-average:])) if ok else None})
+                        f"{key}steady_speed_mps": _steady_speed(r, average)})
         rows.append(row)
     ok = [x["steady_speed_mps"] for x in rows if x["steady_speed_mps"] is not None]
     e = [x["eta"] for x in rows]
@@ -421,11 +431,8 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS
         rec["pdff_dv_deta"] = speed_sensitivity(e, [x["pdff_steady_speed_mps"] for x in rows])
     factor = []
     for gait in gait_factor:
-        speeds = []
-        for eta in etas:
-            r = _walk(gait, "iolin", steps, progress, eta=eta, sensing="ideal")
-            sp = r["speed_per_step"]
-            speeds.append(float(np.mean(sp[-average:])) if not r["fell"] and len(sp) >= average else None)
+        speeds = [_steady_speed(_walk(gait, "iolin", steps, progress, eta=eta, sensing="ideal"), average)
+                  for eta in etas]
         factor.append(dict(gait=gait, steady_speed_mps=speeds, dv_deta=speed_sensitivity(e, speeds)))
     rec["gait_factor"] = factor
     return rec
