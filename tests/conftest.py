@@ -37,7 +37,39 @@ def _shared_compile_cache() -> None:
     compilecache.enable(path)
 
 
+def _compile_for_tests() -> None:
+    """The suite compiles with JAX's ``jax_disable_most_optimizations`` (XLA's backend at
+    optimisation level 0, its expensive LLVM passes off): the same programs, computing the same
+    arithmetic, compiled in less time and run somewhat slower, which a suite that spends most of
+    its time compiling gains from. Inherited by the commands tests start as subprocesses.
+    Modules marked ``optimized`` (their time goes to running long simulations, not to compiling)
+    compile as a user's run does; BIPEDLAB_TEST_OPTIMIZE=1 compiles everything so."""
+    if os.environ.get("BIPEDLAB_TEST_OPTIMIZE") == "1":
+        return
+    _set_optimized(False)
+
+
+def _set_optimized(on: bool) -> None:
+    os.environ["JAX_DISABLE_MOST_OPTIMIZATIONS"] = "0" if on else "1"
+    jax.config.update("jax_disable_most_optimizations", not on)
+
+
+@pytest.fixture(autouse=True, scope="module")
+def _compile_mode(request):
+    """A module marked ``optimized`` compiles (and starts its subprocesses) with XLA's
+    optimisations; the others as the suite does (:func:`_compile_for_tests`)."""
+    if os.environ.get("BIPEDLAB_TEST_OPTIMIZE") == "1" or request.node.get_closest_marker("optimized") is None:
+        yield
+        return
+    _set_optimized(True)
+    try:
+        yield
+    finally:
+        _set_optimized(False)
+
+
 _created: list = []
+_compile_for_tests()
 _shared_compile_cache()
 
 

@@ -3,7 +3,13 @@ process) once an experiment has finished, then the same command again: it names 
 experiments it resumes, computes only the others, leaves no worker behind, and its report's
 rows are those of the next, uninterrupted run. Three cheap experiments of the quick
 reproduction (the seven-link free swing and low-gain PD, ATRIAS on flat ground), in one folder
-(four processes, where two tests with a shared reference run took six)."""
+(four processes, where two tests with a shared reference run took six).
+
+Slow tier: four real processes. Their fast counterparts, each failing for the same defects, run
+by default: the resume logic on a made-up paper (tests/core/report/test_resume.py), SIGINT and
+SIGTERM ending a study with 130 / 143, one line and no partial output
+(tests/test_cli_reliability.py), and a dead worker ending the run with an error
+(tests/test_reproduce_workers.py)."""
 from __future__ import annotations
 
 import json
@@ -13,6 +19,10 @@ import subprocess
 import sys
 import time
 from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.slow
 
 SWING, PD, FLAT = "seven-link/free-swing", "seven-link/low-gain-pd", "running/flat"
 

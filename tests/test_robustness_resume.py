@@ -2,7 +2,13 @@
 mid-way (SIGKILL, SIGINT) or stopped by a full disk resumes from the chunks it wrote and ends
 with the outcomes of an uninterrupted run, bit for bit; a run with other options on the same
 DIR is refused in one line unless --restart. Small runs (3 steps, 4 trials per device per
-call); the 10,000-trial version is slow."""
+call), and a 10,000-trial run.
+
+Slow tier: each test starts real processes (five for the interruptions). Their fast counterparts
+run by default: the chunks' resume, a full disk, damaged and lost chunks, the refusal of another
+run's folder and --restart on the engine in one process (tests/core/robustness/test_chunks.py),
+and SIGINT / SIGTERM ending a study with one line and no partial output
+(tests/test_cli_reliability.py)."""
 from __future__ import annotations
 
 import json
@@ -16,6 +22,8 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+
+pytestmark = pytest.mark.slow
 
 TRIALS = 120
 BASE = ["robustness", "five-link", "--steps", "3", "--chunk", "4", "--devices", "2", "--seed", "2"]

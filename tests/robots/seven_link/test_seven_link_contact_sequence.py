@@ -12,6 +12,8 @@ from bipedlab.robots.seven_link import controller as ctl
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import study as w
 
+pytestmark = pytest.mark.optimized  # its time is running long simulations (tests/conftest.py)
+
 #: the short walks of the default tier share the compiled program of test_walk_seven_link's
 SHORT = 5
 

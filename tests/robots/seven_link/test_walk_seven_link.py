@@ -13,6 +13,8 @@ from helpers import expect_usage_error
 from bipedlab import cli
 from bipedlab.robots.seven_link import study as w
 
+pytestmark = pytest.mark.optimized  # its time is running long simulations (tests/conftest.py)
+
 SHORT = 5
 
 
