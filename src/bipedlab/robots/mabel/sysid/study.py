@@ -66,6 +66,16 @@ def record(ident: sysid.Identification, truth: sysid.MabelParams | None, missing
     why = sid.unfitted(ident, missing or {})
     for row in cmp["parameters"]:
         row.setdefault("identified", row["name"] not in why)
+    if truth is not None:
+        # the targets judge what was identified: a parameter the logs do not fit keeps its
+        # published value, and a group with none identified has no target met or missed
+        ident_err = {}
+        for row in cmp["parameters"]:
+            if row["group"] != "bias" and row["identified"] and row["rel_error"] is not None:
+                ident_err[row["group"]] = max(ident_err.get(row["group"], 0.0), row["rel_error"])
+        cmp["max_rel_error_identified"] = {g: ident_err.get(g) for g in cmp["max_rel_error_identified"]}
+        cmp["targets_met"] = {g: (met if g == "bias" else None if g not in ident_err else ident_err[g] <= sid.TARGETS[g])
+                              for g, met in cmp["targets_met"].items()}
     joints, cables = _validation_summary(ident.details.get("validation", {}))
     hop = ident.details.get("hopping", {})
     rec = {
@@ -198,7 +208,8 @@ def summary(rec: dict) -> str:
         lines.append("  largest relative error per group (target; identified only):")
         for g, v in rec["max_rel_error"].items():
             t = targets.get(g)
-            flag = "" if t is None else f"  (target {t:.0%}: {'met' if met.get(g) else 'MISSED'})"
+            verdict = "not identified" if g in met and met[g] is None else ("met" if met.get(g) else "MISSED")
+            flag = "" if t is None else f"  (target {t:.0%}: {verdict})"
             vi = identified.get(g)
             lines.append(f"    {g:<20} {_fmt(v)}" + (f"  [identified: {_fmt(vi)}]" if vi != v else "") + flag)
         lines.append(f"  largest bias error: {_fmt(rec.get('max_abs_bias_error_nm'), '.2f', 1e3)} mN m (eq. 20; "
