@@ -66,9 +66,9 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
         absent = "its experiment was not run" if any(rec is None for rec in records.values()) else \
             "not measured by this reproduction"
         v = measured.get(r["id"], Skip(absent))
-        facts = {}
+        facts, sensitivity = {}, None
         if isinstance(v, Measured):
-            v, facts = v.value, dict(v.facts)
+            v, facts, sensitivity = v.value, dict(v.facts), v.sensitivity
         reason, failed, unknown = None, None, None
         if isinstance(v, NotIdentifiable):
             unknown, v = v.reason, None
@@ -102,22 +102,29 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
                 why = f"self-check not met: {why}"
         else:
             why = reason
+        closed = values.closing(v, r["paper"], sensitivity) if word == "departs" and sensitivity else None
+        if closed is not None:
+            why = f"{why} {values.closing_text(closed)}"
         out.append(dict(id=r["id"], quantity=r["quantity"], paper=r["paper"], unit=unit, source=r["source"],
                         bipedlab=v, tolerance=values.tolerance_text(tol, unit, sign),
                         tolerance_spec=dict(kind=tol["kind"], value=tol.get("value"), derivation=tol.get("derivation"),
                                             sign=sign),
                         tolerance_why=tol["why"], derivation=tol.get("derivation"), self_check=self_check,
                         survival_only=bool(r.get("survival_only")), gait=r.get("gait"),
-                        met=met, agrees=None if self_check else met, verdict=word, why=why))
+                        met=met, agrees=None if self_check else met, verdict=word, why=why, closing=closed))
     return out, data
 
 
 def counts(rows: list) -> dict:
-    """How many rows match, agree or depart (numbers), hold (of which how many on survival
+    """How many rows match, agree or depart (numbers; the departures sorted by
+    :func:`values.closing` where the run measured their sensitivity), hold (of which how many on survival
     alone) or fail (claims), are self-checks (met or not), are not identifiable from the run's
     data or are not judged: each verdict class apart."""
     v = [r["verdict"] for r in rows]
+    kinds = [(r.get("closing") or {}).get("kind") for r in rows if r["verdict"] == "departs"]
     return dict(rows=len(rows), matches=v.count("matches"), agrees=v.count("agrees"), departs=v.count("departs"),
+                departs_within_uncertainty=kinds.count(values.WITHIN_UNCERTAINTY),
+                departs_implementation=kinds.count(values.IMPLEMENTATION),
                 claims_hold=v.count("claim holds"),
                 claims_hold_survival_only=sum(r["verdict"] == "claim holds" and bool(r.get("survival_only")) for r in rows),
                 claims_fail=v.count("claim fails"),

@@ -65,12 +65,22 @@ def counts_text(c: dict) -> str:
     sc = c.get("self_checks", 0)
     ni = c.get("not_identifiable", 0)
     return (f'{c["rows"]} rows: {c.get("matches", 0)} match the paper\'s printed precision, {c["agrees"]} agree '
-            f'within a band, {c["departs"]} depart; claims: {c.get("claims_hold", 0)} hold'
+            f'within a band, {c["departs"]} depart'
+            + _sorted_departures(c) + f'; claims: {c.get("claims_hold", 0)} hold'
             + (f' ({c["claims_hold_survival_only"]} of them on survival alone)' if c.get("claims_hold_survival_only")
                else '') + ', '
             f'{c.get("claims_fail", 0)} fail; {sc} self-check{"s" if sc != 1 else ""} '
             f'({c.get("self_checks_not_met", 0)} not met); '
             + (f'{ni} not identifiable from the data; ' if ni else '') + f'{c["not_judged"]} not judged.')
+
+
+def _sorted_departures(c: dict) -> str:
+    """' (w within model uncertainty, i implementation or setup, n not sorted)' where any
+    departure was sorted by its measured sensitivity, else ''."""
+    w, i = c.get("departs_within_uncertainty", 0), c.get("departs_implementation", 0)
+    if not (w or i):
+        return ""
+    return f' ({w} within model uncertainty, {i} implementation or setup, {c["departs"] - w - i} not sorted)'
 
 
 def _table(rows: list) -> str:
@@ -203,7 +213,11 @@ def page(report: dict) -> str:
              f'<em>agrees</em> within a band derived from a spread or a size, or <em>departs</em>; a stated '
              f'claim (a bound, a range, a yes/no) <em>holds</em> or <em>fails</em>; a self-check (the method '
              f'against its own target, or a number it was fitted to) is met or not. The classes are counted '
-             f'apart: a claim or a self-check never counts as agreement with a number. '
+             f'apart: a claim or a self-check never counts as agreement with a number. A departing number whose '
+             f'run measured its sensitivity to the robot\'s parameters is sorted, to first order: <em>within model '
+             f'uncertainty</em> when the parameters the paper states, each within its stated precision, could '
+             f'close it, else <em>implementation or setup</em>; its text gives the smallest single change that '
+             f'would close it. '
              f'{"A <strong>--quick</strong> run: every experiment reduced as stated in its table; " if report["quick"] else ""}'
              f'<span class="counts">{escape(counts_text(total))}</span></p>',
              "<nav>" + "".join(f'<a href="#{escape(k)}">{escape(p["title"])}</a>' for k, p in papers.items())

@@ -84,13 +84,29 @@ class NotIdentifiable:
 
 
 @dataclass(frozen=True)
+class Sensitivity:
+    """How a row's value moves with the robot's parameters, measured by the run: ``elasticity``
+    {parameter: d ln(value) / d ln(parameter)}; ``precision`` {parameter: the relative precision
+    the paper states it to (None for a value the paper does not give: an assumed one)};
+    ``source``: where the precisions come from; ``method``: how the derivatives were measured.
+    A departing row with one is sorted (:func:`bipedlab.report.values.closing`)."""
+
+    elasticity: dict
+    precision: dict
+    source: str
+    method: str
+
+
+@dataclass(frozen=True)
 class Measured:
     """A row's simulated value with the numbers of the run its texts cite: ``{name}`` in the
     row's ``tolerance.why`` or ``departs_why`` is filled from ``facts`` (beside ``value``,
-    ``paper`` and the experiments' records; :func:`bipedlab.report.values.render`)."""
+    ``paper`` and the experiments' records; :func:`bipedlab.report.values.render`);
+    ``sensitivity``: the value's :class:`Sensitivity` to the robot's parameters, if measured."""
 
     value: Any
     facts: dict = field(default_factory=dict)
+    sensitivity: Optional[Sensitivity] = None
 
 
 @dataclass(frozen=True)

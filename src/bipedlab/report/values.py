@@ -83,11 +83,69 @@ REQUIRED = ("id", "quantity", "paper", "source", "tolerance")
 #: or not; a parameter the run's data cannot determine (its 1-sigma error from the data past the
 #: study's bar) is not identifiable; a row the run did not measure, or that the paper gives no
 #: number for, is not judged. Numeric agreement, claims and self-checks are counted apart.
+#: the two kinds of numeric departure (:func:`closing`)
+WITHIN_UNCERTAINTY, IMPLEMENTATION = "within model uncertainty", "implementation or setup"
+
+
+def closing(value, paper, sensitivity) -> dict | None:
+    """What would close a numeric departure, to first order in the robot's parameters, from the
+    value's :class:`~bipedlab.report.spec.Sensitivity` (its elasticities e_k = d ln v / d ln p_k):
+
+    - ``needed``: the relative change of the value that reaches the paper's number, paper / v - 1;
+    - ``smallest``: the parameter whose change alone would make it with the smallest relative
+      change, needed / e_k (and ``smallest_stated``: the same among the parameters whose precision
+      the paper states);
+    - ``reach``: the largest relative change of the value with every stated parameter within its
+      stated precision s_k, sum of s_k |e_k|;
+    - ``kind``: *within model uncertainty* when |needed| <= reach, else *implementation or setup*
+      (a first-order test: it sorts departures, it widens no band).
+
+    None when the value or the paper's number is not a nonzero number."""
+    if not (_number(value) and _number(paper)) or value == 0:
+        return None
+    needed = paper / value - 1.0
+    e = {k: float(x) for k, x in sensitivity.elasticity.items() if _number(x)}
+    singles = {k: needed / x for k, x in e.items() if x != 0}
+    stated = {k: x for k, x in singles.items() if sensitivity.precision.get(k) is not None}
+    reach = sum(abs(x) * sensitivity.precision[k] for k, x in e.items() if sensitivity.precision.get(k) is not None)
+
+    def best(d):
+        if not d:
+            return None
+        k = min(d, key=lambda k: abs(d[k]))
+        return dict(parameter=k, relative_change=d[k], elasticity=e[k], precision=sensitivity.precision.get(k))
+
+    return dict(needed=needed, reach=reach, kind=WITHIN_UNCERTAINTY if abs(needed) <= reach else IMPLEMENTATION,
+                smallest=best(singles), smallest_stated=best(stated), parameters=len(e),
+                source=sensitivity.source, method=sensitivity.method)
+
+
+def closing_text(c: dict) -> str:
+    """One sentence of :func:`closing`'s outcome, for a departing row's text."""
+    def one(b):
+        return f"{b['parameter']} by {b['relative_change']:+.1%}"
+
+    text = (f"Closing it ({c['method']}): the value must change by {c['needed']:+.1%}; the parameters the "
+            f"paper states, each within its precision ({c['source']}), move it by at most {c['reach']:.2%} "
+            f"(first order): {c['kind']}.")
+    if c["smallest"] is not None:
+        text += f" The smallest single change that closes it: {one(c['smallest'])}"
+        if c["smallest_stated"] is not None and c["smallest_stated"]["parameter"] != c["smallest"]["parameter"]:
+            text += f" (of the stated parameters: {one(c['smallest_stated'])})"
+        text += " (first order)."
+    return text
+
+
+def _number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 VERDICTS = ("matches", "agrees", "departs", "claim holds", "claim fails", "self-check met", "self-check not met",
             "not identifiable", "not judged")
 #: the counts of a paper's rows (:func:`bipedlab.report.build.counts`), in the counts line's order
-COUNT_KEYS = ("rows", "matches", "agrees", "departs", "claims_hold", "claims_hold_survival_only", "claims_fail",
-              "self_checks", "self_checks_not_met", "not_identifiable", "not_judged")
+COUNT_KEYS = ("rows", "matches", "agrees", "departs", "departs_within_uncertainty", "departs_implementation",
+              "claims_hold", "claims_hold_survival_only", "claims_fail", "self_checks", "self_checks_not_met",
+              "not_identifiable", "not_judged")
 
 
 class ValuesError(ValueError):

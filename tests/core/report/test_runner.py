@@ -92,7 +92,7 @@ def test_report_json_contract_and_page(paper, tmp_path):
     assert rows["top"]["agrees"] is None and rows["top"]["bipedlab"] is None
     assert rows["top"]["why"] == "not run in --quick"
     assert rows["speed"]["verdict"] == "matches" and rows["hops"]["verdict"] == "claim fails"  # precision; a claim
-    assert toy["counts"] == dict(rows=3, matches=1, agrees=0, departs=0, claims_hold=0, claims_hold_survival_only=0, claims_fail=1, self_checks=0,
+    assert toy["counts"] == dict(rows=3, matches=1, agrees=0, departs=0, departs_within_uncertainty=0, departs_implementation=0, claims_hold=0, claims_hold_survival_only=0, claims_fail=1, self_checks=0,
                                  self_checks_not_met=0, not_identifiable=0, not_judged=1)
     exps = {e["name"]: e for e in toy["experiments"]}
     assert {"wall_s", "compile_s"} <= set(exps["run"]) and exps["run"]["reduction"] == "20 hops"

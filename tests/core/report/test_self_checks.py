@@ -52,7 +52,7 @@ def test_self_checks_are_counted_apart_and_never_as_agreement(report):
     rep, _ = report
     p = rep["papers"]["toy"]
     rows = {r["id"]: r for r in p["rows"]}
-    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, claims_hold=1, claims_hold_survival_only=0, claims_fail=0, self_checks=3,
+    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, departs_within_uncertainty=0, departs_implementation=0, claims_hold=1, claims_hold_survival_only=0, claims_fail=0, self_checks=3,
                                self_checks_not_met=1, not_identifiable=0, not_judged=1)
     for i in ("kt", "ground", "fit"):
         assert rows[i]["agrees"] is None and rows[i]["self_check"]
@@ -138,7 +138,7 @@ def test_a_parameter_the_data_cannot_determine_is_not_identifiable(tmp_path):
     row = {r["id"]: r for r in p["rows"]}["ground"]
     assert row["verdict"] == "not identifiable" and row["met"] is None and row["agrees"] is None
     assert row["why"] == "the hop does not determine it (1-sigma 253%)" and row["bipedlab"] is None
-    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, claims_hold=1, claims_hold_survival_only=0, claims_fail=0, self_checks=2,
+    assert p["counts"] == dict(rows=6, matches=0, agrees=0, departs=1, departs_within_uncertainty=0, departs_implementation=0, claims_hold=1, claims_hold_survival_only=0, claims_fail=0, self_checks=2,
                                self_checks_not_met=0, not_identifiable=1, not_judged=1)
     assert set(p["counts"]) == set(values.COUNT_KEYS)
     page = (tmp_path / "out" / "index.html").read_text()

@@ -97,7 +97,8 @@ def test_every_verdict_of_a_built_report_follows_from_its_numbers(key, tmp_path)
         out = json.loads((tmp_path / f"r{k}" / "report.json").read_text())["papers"][key]
         assert out["counts"] == report["papers"][key]["counts"]
         tally = dict(matches=0, agrees=0, departs=0, claims_hold=0, claims_fail=0, self_checks=0,
-                     self_checks_not_met=0, not_identifiable=0, not_judged=0, claims_hold_survival_only=0)
+                     self_checks_not_met=0, not_identifiable=0, not_judged=0, claims_hold_survival_only=0,
+                     departs_within_uncertainty=0, departs_implementation=0)  # no row here has a sensitivity
         for src, got in zip(rows, out["rows"]):
             assert got["id"] == src["id"]
             v = chosen[src["id"]]

@@ -17,6 +17,8 @@ from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import setup as su
 from bipedlab.robots.seven_link import study as w
 
+pytestmark = pytest.mark.optimized  # its time is running long simulations (tests/conftest.py)
+
 
 # ----------------------------------------------------------------------------- Fig. 6
 def test_coulomb_from_decay_is_the_closed_form():
@@ -166,3 +168,58 @@ def test_the_planar_walk_is_the_boom_program_with_every_part_off():
     for a, b in zip(jax.tree_util.tree_leaves(planar), jax.tree_util.tree_leaves(off)):
         np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
     assert not np.array_equal(np.asarray(boom.td_time), np.asarray(planar.td_time))
+
+
+def test_table_i_scaled_in_the_plant_is_data_and_reaches_only_what_it_should():
+    """The sensitivity's premise: a scaled Table I value is data of the walk's compiled program
+    (no new program), scaled in the plant only. The body's length places only the head (a
+    drawing point): the walk is the same bit for bit. The body's mass, +1 %: the plant weighs
+    61.2 g more while the controller keeps Table I, and the walk changes."""
+    from helpers import new_programs
+
+    from bipedlab.robots.seven_link import robot as sl
+
+    base = w.run_walk(BOOM_STEPS, "paper", setup="boom")
+    head, built = new_programs(w.run_walk, BOOM_STEPS, "paper", setup="boom", scale={("body", "length"): 1.3})
+    assert built == 0
+    for a, b in zip(jax.tree_util.tree_leaves(base), jax.tree_util.tree_leaves(head)):
+        np.testing.assert_array_equal(np.asarray(a), np.asarray(b))
+    heavy, built = new_programs(w.run_walk, BOOM_STEPS, "paper", setup="boom", scale={("body", "mass"): 1.01})
+    assert built == 0
+    assert not np.array_equal(np.asarray(heavy.td_time), np.asarray(base.td_time))
+    assert float(sl.total_mass(sl.model(scale={("body", "mass"): 1.01}))) == pytest.approx(
+        float(sl.total_mass(sl.model())) + 0.0612, abs=1e-12)
+    with pytest.raises(ValueError, match="no Table I value"):
+        sl.model(scale={("body", "colour"): 1.1})
+
+
+def test_printed_precision_is_half_a_unit_of_the_last_printed_digit():
+    from bipedlab.robots.seven_link import robot as sl
+
+    assert sl.printed_precision("body", "mass") == pytest.approx(0.005 / 6.12)
+    assert sl.printed_precision("body", "length") == pytest.approx(0.0005 / 0.390)  # "0.390": three decimals
+    assert sl.printed_precision("thigh", "inertia") == pytest.approx(0.00005 / 0.0096)
+    assert sl.BODY["length"] == 0.39 and sl.ACTUATORS["knee"]["J"] == 0.0022
+
+
+def test_the_sensitivity_of_a_short_boom_walk(monkeypatch):
+    """Two parameters over the short walk: each elasticity is the central difference of the
+    scaled walks' figures, speed = step length x step frequency holds for the elasticities to
+    first order, and the reach counts Table I's parameters only (the boom's mass is assumed)."""
+    from bipedlab.robots.seven_link import sensitivity as sv
+
+    monkeypatch.setattr(sv, "table_parameters", lambda: [("thigh", "mass")])
+    monkeypatch.setattr(sv, "SETUP", {"boom arm mass": sv.SETUP["boom arm mass"]})
+    rec = sv.sensitivity(BOOM_STEPS, "paper", step=0.01)
+    assert rec["walks"] == 5 and rec["fell"] == []
+    base = rec["base"]
+    for name, r in rec["parameters"].items():
+        e = r["elasticity"]
+        for q in sv.QUANTITIES:
+            assert e[q] == pytest.approx((r["plus"][q] - r["minus"][q]) / (0.02 * base[q]), rel=1e-12)
+        assert e["speed_mps"] == pytest.approx(e["step_length_m"] + e["step_frequency_hz"], abs=1e-3)
+    thigh = rec["parameters"]["thigh.mass"]
+    assert thigh["precision"] == pytest.approx(0.005 / 0.67) and rec["parameters"]["boom arm mass"]["precision"] is None
+    assert sv.reach(rec, "speed_mps") == pytest.approx(abs(thigh["elasticity"]["speed_mps"]) * thigh["precision"])
+    text = sv.summary(rec)
+    assert "thigh.mass" in text and "assumed" in text

@@ -11,4 +11,4 @@ DEFAULT_PARAMS = "tuned"
 SETUPS = ("planar", "boom")
 DEFAULT_SETUP = "planar"
 #: the validation experiments of ``experiment seven-link``
-EXPERIMENTS = ("free-swing", "low-gain-pd")
+EXPERIMENTS = ("free-swing", "low-gain-pd", "sensitivity")

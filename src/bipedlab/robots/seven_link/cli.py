@@ -1,5 +1,5 @@
 """The seven-link biped's commands: ``bipedlab walk seven-link`` and ``bipedlab experiment
-seven-link free-swing|low-gain-pd`` (registered with :mod:`bipedlab.registry`; the study module is
+seven-link free-swing|low-gain-pd|sensitivity`` (registered with :mod:`bipedlab.registry`; the study module is
 imported inside ``run``)."""
 from __future__ import annotations
 
@@ -37,12 +37,21 @@ def _walk(args, progress):
 
 def _experiment_arguments(p) -> None:
     p.add_argument("name", choices=EXPERIMENTS, help=" | ".join(EXPERIMENTS))
+    p.add_argument("--steps", type=STEPS, default=None,
+                   help="sensitivity only: steps of each walk (default 30)")
     _out(p)
 
 
 def _experiment(args, progress):
     from bipedlab.robots.seven_link import study as walk_seven_link
 
+    if args.name == "sensitivity":
+        from bipedlab.robots.seven_link import sensitivity
+
+        return (sensitivity.sensitivity(args.steps if args.steps is not None else 30, progress=progress),
+                sensitivity.summary)
+    if args.steps is not None:
+        raise UsageError(f"experiment seven-link {args.name}: --steps is an option of the sensitivity experiment only")
     run = walk_seven_link.free_swing if args.name == "free-swing" else walk_seven_link.low_gain_pd
     return run(out=args.out, progress=progress), walk_seven_link.summary_experiment
 

@@ -6,7 +6,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Skip, dig
+from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Sensitivity, Skip, dig
 
 DATA = Path(__file__).parent / "data" / "paper_seven_link.json"
 WALK_STEPS, QUICK_WALK_STEPS = 30, 10
@@ -22,6 +22,12 @@ def _free_swing(args, out, progress):
     from bipedlab.robots.seven_link import study
 
     return study.free_swing(out=out, duration=args["duration_s"], progress=progress)
+
+
+def _sensitivity(args, out, progress):
+    from bipedlab.robots.seven_link import sensitivity
+
+    return sensitivity.sensitivity(args["steps"], args["params"], step=args["step"], progress=progress)
 
 
 def _low_gain_pd(args, out, progress):
@@ -44,6 +50,9 @@ EXPERIMENTS = (
                dict(steps=QUICK_WALK_STEPS, params="paper", setup="boom"),
                reduction=f"{QUICK_WALK_STEPS} steps requested instead of {WALK_STEPS}", expected_s=30,
                quick_expected_s=8),
+    Experiment("sensitivity", f"bipedlab experiment seven-link sensitivity --steps {WALK_STEPS}", _sensitivity,
+               dict(steps=WALK_STEPS, params="paper", step=0.01), None,
+               skip_reason="not run in --quick (63 walks of 30 steps)", expected_s=1300),
     Experiment("free-swing", "bipedlab experiment seven-link free-swing", _free_swing, dict(duration_s=6.0),
                dict(duration_s=6.0), reduction="as in the full run", expected_s=5, quick_expected_s=5),
     Experiment("low-gain-pd", "bipedlab experiment seven-link low-gain-pd", _low_gain_pd, dict(duration_s=8.0),
@@ -97,6 +106,16 @@ def _gait_rows(rec, name: str, prefix: str, quick_skip: str) -> dict:
     return out
 
 
+def _sensitivity_of(rec: dict, quantity: str) -> Sensitivity:
+    """A boom-walk quantity's :class:`~bipedlab.report.spec.Sensitivity` from the sensitivity
+    experiment's record (the parameters whose scaled walk fell left out)."""
+    rows = {k: r for k, r in rec["parameters"].items() if r["elasticity"][quantity] is not None}
+    fell = f"; scaled by 1 %, {', '.join(rec['fell'])} made the walk fall (no elasticity)" if rec["fell"] else ""
+    return Sensitivity(elasticity={k: r["elasticity"][quantity] for k, r in rows.items()},
+                       precision={k: r["precision"] for k, r in rows.items()}, source=rec["precision_source"],
+                       method=rec["method"] + " (experiment sensitivity)" + fell)
+
+
 def measure(records: dict, quick: bool) -> dict:
     w, p = records.get("walk"), records.get("walk-table-ii")
     fs, pd = records.get("free-swing"), records.get("low-gain-pd")
@@ -113,6 +132,11 @@ def measure(records: dict, quick: bool) -> dict:
                     f"touchdowns (see experiment {name})")
             else:
                 out[f"{prefix}{key}"] = dig(rec, key) if rec else Skip("not run in --quick" if quick else "not run")
+    sens = records.get("sensitivity")
+    if b and not b.get("fell") and sens:
+        for key in ("speed_mps", "step_length_m", "step_frequency_hz", "cmt"):
+            out[f"walk_table_ii_boom_{key}"] = Measured(out[f"walk_table_ii_boom_{key}"],
+                                                        sensitivity=_sensitivity_of(sens, key))
     hip, knee = dig(fs, "joints", "hip", default={}), dig(fs, "joints", "knee", default={})
     out["free_swing_hip_half_cycles"] = dig(hip, "21:1 (Table I)", "half_cycles")
     out["free_swing_knee_half_cycles"] = dig(knee, "12:1 (Table I)", "half_cycles")

@@ -53,17 +53,32 @@ from bipedlab.mechanics import kinematics as kin
 from bipedlab.pytree import pytree
 
 # ----------------------------------------------------------------------------- Table I
-BODY = dict(length=0.390, com=0.185, mass=6.12, inertia=0.021)
-THIGH = dict(length=0.295, com=0.147, mass=0.67, inertia=0.0096)
-SHANK = dict(length=0.298, com=0.14, mass=0.55, inertia=0.0069)
-FOOT = dict(length=0.183, mass=0.36, inertia=0.0007, a=0.137, b=0.046, h=0.055, c_x=0.014, c_y=0.035)
+#: Table I as printed (the digits state each value's precision: :func:`printed_precision`);
+#: links: length l, COM distance l_c from the proximal joint (m), mass (kg), inertia about the
+#: COM (kg m^2); the foot's a, b, h, c_x, c_y (m); actuators per joint: gear ratio n, mass (kg),
+#: reflected inertia J_a (kg m^2), joint viscous damping b (N m s, printed "≈").
+TABLE_I = dict(
+    body=dict(length="0.390", com="0.185", mass="6.12", inertia="0.021"),
+    thigh=dict(length="0.295", com="0.147", mass="0.67", inertia="0.0096"),
+    shank=dict(length="0.298", com="0.14", mass="0.55", inertia="0.0069"),
+    foot=dict(length="0.183", mass="0.36", inertia="0.0007", a="0.137", b="0.046", h="0.055", c_x="0.014",
+              c_y="0.035"),
+    hip=dict(n="21", mass="0.84", J="0.0067", b="0.13"),
+    knee=dict(n="12", mass="0.84", J="0.0022", b="0.11"),
+    ankle=dict(n="21", mass="0.84", J="0.0067", b="0.05"),
+)
+BODY, THIGH, SHANK, FOOT = ({k: float(v) for k, v in TABLE_I[part].items()} for part in ("body", "thigh", "shank", "foot"))
 #: Per joint (hip, knee, ankle): gear ratio n, actuator mass (kg), reflected inertia J_a (kg m^2),
 #: joint viscous damping b (N m s).
-ACTUATORS = dict(
-    hip=dict(n=21.0, mass=0.84, J=0.0067, b=0.13),
-    knee=dict(n=12.0, mass=0.84, J=0.0022, b=0.11),
-    ankle=dict(n=21.0, mass=0.84, J=0.0067, b=0.05),
-)
+ACTUATORS = {j: {k: float(v) for k, v in TABLE_I[j].items()} for j in ("hip", "knee", "ankle")}
+
+
+def printed_precision(part: str, key: str) -> float:
+    """The relative precision of a Table I value as printed: half a unit of its last digit over
+    the value (6.12 kg: 0.005 / 6.12)."""
+    text = TABLE_I[part][key]
+    decimals = len(text.split(".")[1]) if "." in text else 0
+    return 0.5 * 10.0 ** -decimals / abs(float(text))
 JOINTS = ("hip", "knee", "ankle")
 #: Rotor-plus-gearhead inertia on the motor side (kg m^2), the mean of J_a / n^2 over Table I.
 MOTOR_INERTIA = float(np.mean([ACTUATORS[j]["J"] / ACTUATORS[j]["n"] ** 2 for j in JOINTS]))
@@ -186,27 +201,38 @@ def _tree_map() -> np.ndarray:
 
 
 def model(gear_ratios=(21.0, 12.0, 21.0), damping=None, scale_damping_with_gear: bool = True,
-          gravity: float = GRAVITY) -> SevenLink:
+          gravity: float = GRAVITY, scale: dict | None = None) -> SevenLink:
     """The seven-link biped of Table I.
 
     gear_ratios (hip, knee, ankle): reflected inertias are n^2 J_m (Table I's values for the
     default 21, 12, 21). damping: joint viscous damping (N m s, hip, knee, ankle); default
     Table I's, multiplied by (n / n_Table I)^2 when scale_damping_with_gear.
+    scale: {(part, key): factor} on Table I's values (a part of :data:`TABLE_I`; an actuator's
+    mass, J or b for both legs' joint): the robot the table's uncertainty allows, e.g.
+    ``{("body", "mass"): 1.01}``. Every scaled value is data of the compiled programs.
     """
+    scale = dict(scale or {})
+    bad = [k for k in scale if k[0] not in TABLE_I or k[1] not in TABLE_I[k[0]] or k[1] == "n"]
+    if bad:
+        raise ValueError(f"seven-link: no Table I value {bad} to scale")
+    links = {part: {k: v * scale.get((part, k), 1.0) for k, v in d.items()}
+             for part, d in (("body", BODY), ("thigh", THIGH), ("shank", SHANK), ("foot", FOOT))}
+    act = {j: {k: v * scale.get((j, k), 1.0) for k, v in ACTUATORS[j].items()} for j in JOINTS}
     n = np.asarray(gear_ratios, float)
-    n0 = np.array([ACTUATORS[j]["n"] for j in JOINTS])
+    n0 = np.array([act[j]["n"] for j in JOINTS])
     if damping is None:
-        b = np.array([ACTUATORS[j]["b"] for j in JOINTS])
+        b = np.array([act[j]["b"] for j in JOINTS])
         if scale_damping_with_gear:
             b = b * (n / n0) ** 2
     else:
         b = np.asarray(damping, float)
     J = n**2 * MOTOR_INERTIA
     if np.allclose(n, n0):
-        J = np.array([ACTUATORS[j]["J"] for j in JOINTS])  # Table I exactly
+        J = np.array([act[j]["J"] for j in JOINTS])  # Table I exactly
     rotors = [(f"rotor_{JOINT_NAMES[3 * leg + k]}", float(J[k]), JOINT_MAP[3 * leg + k]) for leg in range(2)
               for k in range(3)]
-    tree = _tree(actuator_mass=tuple(ACTUATORS[j]["mass"] for j in JOINTS), gravity=gravity)
+    tree = _tree(links["body"], links["thigh"], links["shank"], links["foot"],
+                 actuator_mass=tuple(act[j]["mass"] for j in JOINTS), gravity=gravity)
     c = cp.coupled(tree, _tree_map(), rotors, COORDS)
     return SevenLink(c, jnp.asarray(np.tile(b, 2)), jnp.asarray(np.tile(n, 2)))
 

@@ -210,9 +210,10 @@ def boom(boom_inertia: bool = True, foot_turning: bool = True, drive_friction: b
                     turn_rate=f(TURN_RATE))
 
 
-def plant(setup: sl.Setup | None = None) -> sl.SevenLink:
-    """The planar model of Table I with the setup's additions (default :func:`boom`)."""
-    return sl.model().replace(setup=boom() if setup is None else setup)
+def plant(setup: sl.Setup | None = None, robot: sl.SevenLink | None = None) -> sl.SevenLink:
+    """The planar model of Table I (or ``robot``: one of :func:`~bipedlab.robots.seven_link.robot.model`'s
+    scaled tables) with the setup's additions (default :func:`boom`)."""
+    return (sl.model() if robot is None else robot).replace(setup=boom() if setup is None else setup)
 
 
 def describe(setup: sl.Setup, knee_lock_torque: float) -> dict:

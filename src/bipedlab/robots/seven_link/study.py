@@ -131,13 +131,14 @@ def boom_setup(without=(), **boom_options):
 
 def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=None, active0=None,
              speed: float = START_SPEED, setup: str = "planar", without=(), boom_options: dict | None = None,
-             knee_lock_torque: float = su.KNEE_LOCK_TORQUE):
+             knee_lock_torque: float = su.KNEE_LOCK_TORQUE, scale: dict | None = None):
     """Simulate the closed loop; returns the raw :class:`~bipedlab.robots.seven_link.contact.SimResult`.
     setup: "planar" (the planar model: the boom setup with every part off) or "boom" (the plant of
     :mod:`bipedlab.robots.seven_link.setup`, less the parts named in ``without``; the
     controller keeps the planar model, the knee lock torque is the controller's);
     boom_options: keyword arguments of :func:`bipedlab.robots.seven_link.setup.boom` (the
-    sensitivity to its assumed sizes)."""
+    sensitivity to its assumed sizes); scale: Table I's values scaled in the plant only
+    (:func:`bipedlab.robots.seven_link.robot.model`; the controller keeps Table I)."""
     r = sl.model()
     if x0 is None:
         x0, active0 = initial_condition(r, speed)
@@ -150,7 +151,7 @@ def run_walk(steps: int = 30, params: str = "tuned", sensing: bool = False, x0=N
     # the lock torque and its threshold are one mechanism (Fig. 8 caption): the latch with the torque
     p = ctl.make_params(r, g, sensing=sensing, unilateral_check=UNILATERAL_CHECK[params],
                         stance_knee_latch_deg=ctl.STANCE_KNEE_LATCH_DEG * float(on["knee_lock"]))
-    plant = su.plant(s)
+    plant = su.plant(s, sl.model(scale=scale) if scale else None)
     return _setup_simulator(settings_for(steps))(x0, active0, p, ctl.initial_state(x0), plant)
 
 

@@ -1,0 +1,67 @@
+"""Departures sorted by what could close them: a departing numeric row whose run measured the
+value's sensitivity to the robot's parameters says, to first order, the change each parameter
+alone would need, and whether the parameters the paper states, within their stated precision,
+could close it (*within model uncertainty*) or not (*implementation or setup*). Sorting never
+turns a departure into agreement."""
+from __future__ import annotations
+
+import json
+
+import pytest
+
+from bipedlab.report import Measured, Paper, Sensitivity, build, html, values
+from bipedlab.report.runner import Result
+
+# v = 0.9 against the paper's 1.0 needs +11.1 %: the mass moves v by 2 % per 1 % (elasticity 2)
+# and is stated to 0.5 %; the length (elasticity -0.5) to 10 %; the boom's mass is assumed
+SENS = Sensitivity(elasticity={"mass": 2.0, "length": -0.5, "boom": 4.0},
+                   precision={"mass": 0.005, "length": 0.10, "boom": None}, source="Table I's digits",
+                   method="central differences")
+
+
+def test_the_closing_change_and_the_reach_are_first_order_closed_forms():
+    c = values.closing(0.9, 1.0, SENS)
+    assert c["needed"] == pytest.approx(1.0 / 0.9 - 1.0)
+    # every stated parameter within its precision: 0.005 * 2 + 0.10 * 0.5 = 0.06 < 0.111
+    assert c["reach"] == pytest.approx(0.06)
+    assert c["kind"] == values.IMPLEMENTATION
+    # alone: the boom's mass by +2.8 % (assumed, so not in the reach), the stated mass by +5.6 %
+    assert c["smallest"]["parameter"] == "boom" and c["smallest"]["relative_change"] == pytest.approx(c["needed"] / 4)
+    assert c["smallest_stated"]["parameter"] == "mass"
+    assert c["smallest_stated"]["relative_change"] == pytest.approx(c["needed"] / 2)
+    # a value 5 % off is within the stated parameters' reach
+    assert values.closing(1.0 / 1.05, 1.0, SENS)["kind"] == values.WITHIN_UNCERTAINTY
+    # the sign follows the elasticity: too fast needs less mass, more length
+    fast = values.closing(1.2, 1.0, SENS)
+    assert fast["needed"] < 0 and fast["smallest_stated"]["relative_change"] < 0
+    # nothing to sort without numbers
+    assert values.closing(None, 1.0, SENS) is None and values.closing(0.9, "about one", SENS) is None
+    assert values.closing(0.0, 1.0, SENS) is None
+
+
+def test_a_departing_row_carries_its_closing_and_the_counts_sort_the_departures(tmp_path):
+    rows = [dict(id=i, quantity=i, paper=1.0, unit="m/s", source="Table II",
+                 tolerance=dict(kind="rel", value=0.02, derivation="precision", why="printed to two digits"),
+                 departs_why="walks at {value:.2f} m/s") for i in ("far", "near", "agrees", "bare")]
+    path = tmp_path / "toy.json"
+    path.write_text(json.dumps(dict(paper="toy", title="Toy", citation="c", rows=rows)))
+    measured = dict(far=Measured(0.5, sensitivity=SENS), near=Measured(1.0 / 1.05, sensitivity=SENS),
+                    agrees=Measured(1.01, sensitivity=SENS), bare=0.5)
+    paper = Paper("toy", "Toy", str(path), (), lambda r, q: dict(measured))
+    rep = build.build([paper], {"toy": [Result("toy", "run", "toy", {}, dict(x=1))]}, quick=True,
+                      out_dir=tmp_path / "out", wall_s=0.0, cpu_s=0.0)
+    p = rep["papers"]["toy"]
+    got = {r["id"]: r for r in p["rows"]}
+    # sorting keeps the verdicts: both still depart, the agreeing row has nothing to close
+    assert [got[i]["verdict"] for i in ("far", "near", "agrees", "bare")] == ["departs", "departs", "matches", "departs"]
+    assert got["far"]["closing"]["kind"] == values.IMPLEMENTATION
+    assert got["near"]["closing"]["kind"] == values.WITHIN_UNCERTAINTY
+    assert got["agrees"]["closing"] is None and got["bare"]["closing"] is None
+    assert got["far"]["why"].startswith("walks at 0.50 m/s Closing it (central differences)")
+    assert "implementation or setup" in got["far"]["why"] and "mass by +50.0%" in got["far"]["why"]
+    assert p["counts"]["departs"] == 3
+    assert (p["counts"]["departs_within_uncertainty"], p["counts"]["departs_implementation"]) == (1, 1)
+    line = html.counts_text(p["counts"])
+    assert "3 depart (1 within model uncertainty, 1 implementation or setup, 1 not sorted)" in line
+    on_disk = json.loads((tmp_path / "out" / "report.json").read_text())["papers"]["toy"]
+    assert on_disk["counts"] == p["counts"]
