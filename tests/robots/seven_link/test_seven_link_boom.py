@@ -203,23 +203,45 @@ def test_printed_precision_is_half_a_unit_of_the_last_printed_digit():
 
 
 def test_the_sensitivity_of_a_short_boom_walk(monkeypatch):
-    """Two parameters over the short walk: each elasticity is the central difference of the
-    scaled walks' figures, speed = step length x step frequency holds for the elasticities to
-    first order, and the reach counts Table I's parameters only (the boom's mass is assumed)."""
+    """Three parameters over the short walk: the unscaled walk is the one-walk study's, the
+    body's length (the head only) has elasticity 0 exactly, each elasticity is the forward
+    difference of the scaled walk's figures, and the reach counts Table I's parameters only (the
+    boom's mass is assumed)."""
     from bipedlab.robots.seven_link import sensitivity as sv
 
-    monkeypatch.setattr(sv, "table_parameters", lambda: [("thigh", "mass")])
+    monkeypatch.setattr(sv, "table_parameters", lambda: [("thigh", "mass"), ("body", "length")])
     monkeypatch.setattr(sv, "SETUP", {"boom arm mass": sv.SETUP["boom arm mass"]})
     rec = sv.sensitivity(BOOM_STEPS, "paper", step=0.01)
-    assert rec["walks"] == 5 and rec["fell"] == []
+    assert rec["walks"] == 4 and rec["fell"] == []
+    one = w.walk(BOOM_STEPS, "paper", setup="boom")
     base = rec["base"]
-    for name, r in rec["parameters"].items():
-        e = r["elasticity"]
+    for q in sv.QUANTITIES:
+        assert base[q] == one[q]
+        assert rec["parameters"]["body.length"]["elasticity"][q] == 0.0
+    for r in rec["parameters"].values():
         for q in sv.QUANTITIES:
-            assert e[q] == pytest.approx((r["plus"][q] - r["minus"][q]) / (0.02 * base[q]), rel=1e-12)
-        assert e["speed_mps"] == pytest.approx(e["step_length_m"] + e["step_frequency_hz"], abs=1e-3)
+            assert r["elasticity"][q] == pytest.approx((r["scaled"][q] - base[q]) / (0.01 * base[q]), rel=1e-12)
     thigh = rec["parameters"]["thigh.mass"]
-    assert thigh["precision"] == pytest.approx(0.005 / 0.67) and rec["parameters"]["boom arm mass"]["precision"] is None
+    assert thigh["elasticity"]["speed_mps"] != 0.0 and thigh["precision"] == pytest.approx(0.005 / 0.67)
+    assert rec["parameters"]["boom arm mass"]["precision"] is None
     assert sv.reach(rec, "speed_mps") == pytest.approx(abs(thigh["elasticity"]["speed_mps"]) * thigh["precision"])
+
+
+def test_elasticities_reach_and_summary_of_a_sensitivity_record():
+    """The arithmetic of the sensitivity on made-up walks: forward differences relative to the
+    unscaled walk, none where the scaled walk fell, the reach over the stated parameters only."""
+    from bipedlab.robots.seven_link import sensitivity as sv
+
+    base = dict(speed_mps=0.8, step_length_m=0.7, step_frequency_hz=1.2, cmt=0.4, fell=False)
+    scaled = dict(speed_mps=0.81, step_length_m=0.7, step_frequency_hz=1.2 * 0.81 / 0.8, cmt=0.39, fell=False)
+    e = sv._elasticity(scaled, base, 0.01)
+    assert e["speed_mps"] == pytest.approx(0.01 / (0.01 * 0.8)) and e["step_length_m"] == 0.0
+    assert e["cmt"] == pytest.approx(-0.01 / (0.01 * 0.4))
+    assert sv._elasticity(dict(scaled, fell=True), base, 0.01) == dict.fromkeys(sv.QUANTITIES)
+    rec = dict(base=base, parameters={
+        "thigh.mass": dict(precision=0.005, elasticity=e),
+        "boom arm mass": dict(precision=None, elasticity=dict(e, speed_mps=9.0))},
+        fell=[], method="m", walks=3, wall_time_s=1.0)
+    assert sv.reach(rec, "speed_mps") == pytest.approx(0.005 * 1.25)
     text = sv.summary(rec)
-    assert "thigh.mass" in text and "assumed" in text
+    assert "thigh.mass" in text and "assumed" in text and "speed_mps 0.63%" in text

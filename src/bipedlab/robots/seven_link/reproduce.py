@@ -52,7 +52,7 @@ EXPERIMENTS = (
                quick_expected_s=8),
     Experiment("sensitivity", f"bipedlab experiment seven-link sensitivity --steps {WALK_STEPS}", _sensitivity,
                dict(steps=WALK_STEPS, params="paper", step=0.01), None,
-               skip_reason="not run in --quick (63 walks of 30 steps)", expected_s=1300),
+               skip_reason="not run in --quick (32 walks of 30 steps)", expected_s=800),
     Experiment("free-swing", "bipedlab experiment seven-link free-swing", _free_swing, dict(duration_s=6.0),
                dict(duration_s=6.0), reduction="as in the full run", expected_s=5, quick_expected_s=5),
     Experiment("low-gain-pd", "bipedlab experiment seven-link low-gain-pd", _low_gain_pd, dict(duration_s=8.0),
