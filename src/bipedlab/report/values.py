@@ -83,6 +83,26 @@ REQUIRED = ("id", "quantity", "paper", "source", "tolerance")
 #: or not; a parameter the run's data cannot determine (its 1-sigma error from the data past the
 #: study's bar) is not identifiable; a row the run did not measure, or that the paper gives no
 #: number for, is not judged. Numeric agreement, claims and self-checks are counted apart.
+VERDICTS = ("matches", "agrees", "departs", "claim holds", "claim fails", "self-check met", "self-check not met",
+            "not identifiable", "not judged")
+#: the counts of a paper's rows (:func:`bipedlab.report.build.counts`), in the counts line's order
+COUNT_KEYS = ("rows", "matches", "agrees", "departs", "departs_within_uncertainty", "departs_implementation",
+              "claims_hold", "claims_hold_survival_only", "claims_fail", "self_checks", "self_checks_not_met",
+              "not_identifiable", "not_judged")
+
+
+class ValuesError(ValueError):
+    """A paper-values file that does not follow the format (one line naming file and row)."""
+
+
+class TemplateError(ValuesError):
+    """A why / departs_why text that names a number the run does not hold."""
+
+
+def _number(x) -> bool:
+    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
+
+
 #: the two kinds of numeric departure (:func:`closing`)
 WITHIN_UNCERTAINTY, IMPLEMENTATION = "within model uncertainty", "implementation or setup"
 
@@ -134,30 +154,6 @@ def closing_text(c: dict) -> str:
             text += f" (of the stated parameters: {one(c['smallest_stated'])})"
         text += " (first order)."
     return text
-
-
-def _number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
-
-
-VERDICTS = ("matches", "agrees", "departs", "claim holds", "claim fails", "self-check met", "self-check not met",
-            "not identifiable", "not judged")
-#: the counts of a paper's rows (:func:`bipedlab.report.build.counts`), in the counts line's order
-COUNT_KEYS = ("rows", "matches", "agrees", "departs", "departs_within_uncertainty", "departs_implementation",
-              "claims_hold", "claims_hold_survival_only", "claims_fail", "self_checks", "self_checks_not_met",
-              "not_identifiable", "not_judged")
-
-
-class ValuesError(ValueError):
-    """A paper-values file that does not follow the format (one line naming file and row)."""
-
-
-class TemplateError(ValuesError):
-    """A why / departs_why text that names a number the run does not hold."""
-
-
-def _number(x) -> bool:
-    return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
 def band(tolerance: dict, paper, sign=None):
