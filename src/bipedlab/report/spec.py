@@ -88,13 +88,16 @@ class Sensitivity:
     """How a row's value moves with the robot's parameters, measured by the run: ``elasticity``
     {parameter: d ln(value) / d ln(parameter)}; ``precision`` {parameter: the relative precision
     the paper states it to (None for a value the paper does not give: an assumed one)};
-    ``source``: where the precisions come from; ``method``: how the derivatives were measured.
+    ``source``: where the precisions come from; ``method``: how the derivatives were measured;
+    ``standard_error`` {parameter: the elasticity's standard error} where it was measured on a
+    noisy statistic (an elasticity within two of them of zero is not counted).
     A departing row with one is sorted (:func:`bipedlab.report.values.closing`)."""
 
     elasticity: dict
     precision: dict
     source: str
     method: str
+    standard_error: dict = field(default_factory=dict)
 
 
 @dataclass(frozen=True)

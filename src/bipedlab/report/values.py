@@ -118,13 +118,18 @@ def closing(value, paper, sensitivity) -> dict | None:
     - ``reach``: the largest relative change of the value with every stated parameter within its
       stated precision s_k, sum of s_k |e_k|;
     - ``kind``: *within model uncertainty* when |needed| <= reach, else *implementation or setup*
-      (a first-order test: it sorts departures, it widens no band).
+      (a first-order test: it sorts departures, it widens no band);
+    - ``within_noise``: the parameters whose elasticity lies within two of its standard errors of
+      zero (a noisy statistic's), counted nowhere above.
 
     None when the value or the paper's number is not a nonzero number."""
     if not (_number(value) and _number(paper)) or value == 0:
         return None
     needed = paper / value - 1.0
     e = {k: float(x) for k, x in sensitivity.elasticity.items() if _number(x)}
+    se = {k: float(x) for k, x in (sensitivity.standard_error or {}).items() if _number(x)}
+    noise = sorted(k for k, x in e.items() if se.get(k, 0.0) > 0 and abs(x) <= 2.0 * se[k])
+    e = {k: x for k, x in e.items() if k not in noise}
     singles = {k: needed / x for k, x in e.items() if x != 0}
     stated = {k: x for k, x in singles.items() if sensitivity.precision.get(k) is not None}
     reach = sum(abs(x) * sensitivity.precision[k] for k, x in e.items() if sensitivity.precision.get(k) is not None)
@@ -136,7 +141,7 @@ def closing(value, paper, sensitivity) -> dict | None:
         return dict(parameter=k, relative_change=d[k], elasticity=e[k], precision=sensitivity.precision.get(k))
 
     return dict(needed=needed, reach=reach, kind=WITHIN_UNCERTAINTY if abs(needed) <= reach else IMPLEMENTATION,
-                smallest=best(singles), smallest_stated=best(stated), parameters=len(e),
+                smallest=best(singles), smallest_stated=best(stated), parameters=len(e), within_noise=noise,
                 source=sensitivity.source, method=sensitivity.method)
 
 
@@ -148,6 +153,9 @@ def closing_text(c: dict) -> str:
     text = (f"Closing it ({c['method']}): the value must change by {c['needed']:+.1%}; the parameters the "
             f"paper states, each within its precision ({c['source']}), move it by at most {c['reach']:.2%} "
             f"(first order): {c['kind']}.")
+    if c.get("within_noise"):
+        text += (f" Not counted, their elasticity within two standard errors of zero: "
+                 f"{', '.join(c['within_noise'])}.")
     if c["smallest"] is not None:
         text += f" The smallest single change that closes it: {one(c['smallest'])}"
         if c["smallest_stated"] is not None and c["smallest_stated"]["parameter"] != c["smallest"]["parameter"]:

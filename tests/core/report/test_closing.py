@@ -39,6 +39,24 @@ def test_the_closing_change_and_the_reach_are_first_order_closed_forms():
     assert values.closing(0.0, 1.0, SENS) is None
 
 
+def test_an_elasticity_within_two_standard_errors_of_zero_is_not_counted():
+    """A noisy statistic's elasticity (a chaotic run's spread) counts only beyond two of its
+    standard errors: the stated length with elasticity -0.5 +- 0.3 adds nothing to the reach
+    and closes nothing alone; at +- 0.2 it counts again."""
+    noisy = Sensitivity(elasticity=SENS.elasticity, precision=SENS.precision, source="s", method="m",
+                        standard_error={"length": 0.3, "mass": 0.1})
+    c = values.closing(0.9, 1.0, noisy)
+    assert c["within_noise"] == ["length"]
+    assert c["reach"] == pytest.approx(0.005 * 2.0) and c["parameters"] == 2
+    assert c["smallest_stated"]["parameter"] == "mass"
+    assert "Not counted, their elasticity within two standard errors of zero: length." in values.closing_text(c)
+    clear = Sensitivity(elasticity=SENS.elasticity, precision=SENS.precision, source="s", method="m",
+                        standard_error={"length": 0.2})
+    assert values.closing(0.9, 1.0, clear)["reach"] == pytest.approx(0.06)
+    assert values.closing(0.9, 1.0, clear)["within_noise"] == []
+    assert "Not counted" not in values.closing_text(values.closing(0.9, 1.0, clear))
+
+
 def test_a_departing_row_carries_its_closing_and_the_counts_sort_the_departures(tmp_path):
     rows = [dict(id=i, quantity=i, paper=1.0, unit="m/s", source="Table II",
                  tolerance=dict(kind="rel", value=0.02, derivation="precision", why="printed to two digits"),

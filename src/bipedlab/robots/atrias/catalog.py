@@ -4,6 +4,8 @@ line (:mod:`.cli`) read them here; this module imports nothing, so that the comm
 parser builds without JAX."""
 from __future__ import annotations
 
+#: the experiments of ``bipedlab experiment atrias``
+EXPERIMENTS = ("sensitivity",)
 #: the controller-model parameters ``--model-error`` may scale
 MODEL_ERRORS = ("mass", "inertia", "friction", "stiffness")
 #: rough terrains (--terrain) -> bipedlab.contact.terrain.rough mode
@@ -27,3 +29,22 @@ ADDITIONS = {
 #: and with sensor noise), and the pure spring-mass model
 PAPER_ROUGH_SD = {"regulation": (0.104, 0.255), "regulation-slope": (0.102, 0.264), "conservation": (0.053, 0.202),
                   "conservation-noise": (0.101, 0.261), "spring-mass": (0.018, 0.186)}
+#: the robot's values a sensitivity may scale (plant and controller alike): name -> (what it is,
+#: the relative precision its source states it to (half a unit of the last printed digit), or None
+#: for a value chosen here, where the paper gives none, and the source). The paper itself gives
+#: only "about 60kg" and legs "about 1m" (Sec. II-B).
+SCALABLE = {
+    "m": ("trunk mass (59 kg)", None, "chosen (the paper: about 60 kg in all)"),
+    "I_t": ("trunk inertia (1.37 kg m^2)", 0.005 / 1.37, "ATRIAS parameter sheet, printed digits"),
+    "d": ("COM above the hip (0.1 m)", None, "chosen"),
+    "I_m": ("hip inertia per leg (1.0 kg m^2)", None, "chosen"),
+    "m_f": ("foot mass (0.2 kg)", None, "chosen"),
+    "tau_max": ("hip torque limit (250 N m)", None, "chosen"),
+    "k0": ("spring-mass leg stiffness (32 kN/m)", None, "a later controller of the robot"),
+    "l0": ("spring-mass leg rest length (1 m)", None, "chosen (the paper: legs about 1 m)"),
+    "depth_y": ("ground: weight / normal stiffness (0.01 m)", 0.005 / 0.01, "Geyer & Herr 2010, printed digits"),
+    "depth_x": ("ground: weight / stiction stiffness (0.1 m)", 0.05 / 0.1, "Geyer & Herr 2010, printed digits"),
+    "v_max": ("ground: damping velocity scale (0.03 m/s)", 0.005 / 0.03, "Geyer & Herr 2010, printed digits"),
+    "mu_stick": ("ground: stiction limit (0.9)", 0.05 / 0.9, "Geyer & Herr 2010, printed digits"),
+    "mu_slide": ("ground: sliding friction (0.8)", 0.05 / 0.8, "Geyer & Herr 2010, printed digits"),
+}

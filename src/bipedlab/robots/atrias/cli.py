@@ -1,5 +1,6 @@
-"""The ATRIAS-like biped's command: ``bipedlab run atrias`` (registered with
-:mod:`bipedlab.registry`; the study module is imported inside ``run``)."""
+"""The ATRIAS-like biped's commands: ``bipedlab run atrias`` and ``bipedlab experiment atrias
+sensitivity`` (registered with :mod:`bipedlab.registry`; the study modules are imported inside
+``run``)."""
 from __future__ import annotations
 
 import argparse
@@ -94,9 +95,30 @@ def _run(args, progress):
     return run_atrias.study(st, out_dir=args.out, progress=run_atrias.progress_bar), run_atrias.summary
 
 
+def _experiment_arguments(p) -> None:
+    p.add_argument("name", choices=catalog.EXPERIMENTS, help=" | ".join(catalog.EXPERIMENTS))
+    p.add_argument("--trials", type=int_in(2, 100_000), default=None, metavar="N",
+                   help="terrain draws of each batched run (default: each row's own, 16 or 32)")
+    p.add_argument("--distance", type=float_in(5.0, 2000.0), default=None, metavar="D",
+                   help="distance of each run in m (default: each row's own, 60)")
+    p.add_argument("--parameters", nargs="+", choices=list(catalog.SCALABLE), default=None, metavar="NAME",
+                   help="the robot's values to scale (default all: " + ", ".join(catalog.SCALABLE) + ")")
+    add_out(p)
+
+
+def _experiment(args, progress):
+    from bipedlab.robots.atrias import sensitivity
+
+    rec = sensitivity.sensitivity(trials=args.trials, distance=args.distance, parameters=args.parameters, progress=progress)
+    return rec, sensitivity.summary
+
+
 COMMANDS = [
     Command("run", "atrias", "spring-mass running embedded in the articulated ATRIAS-like biped on unobserved terrain",
             _run_arguments, _run, validate=_run_validate, bench=(("--seconds", "2"),)),
+    Command("experiment", "atrias", "the running study's experiments: sensitivity (the judged quantities' "
+            "elasticities to the robot's values)", _experiment_arguments, _experiment,
+            bench=(("sensitivity", "--trials", "2", "--distance", "10", "--parameters", "tau_max"),)),
 ]
 
 from bipedlab.robots.atrias.robustness import COMMAND as _ROBUSTNESS  # noqa: E402  (no JAX at import)

@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Skip, dig
+from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Sensitivity, Skip, dig
 
 DATA = Path(__file__).parent / "data" / "paper_running.json"
 TRIALS, QUICK_TRIALS = 32, 4
@@ -191,6 +191,20 @@ def _variant(name: str, of: str) -> Experiment:
 EXPERIMENTS = EXPERIMENTS + tuple(_variant(n, of) for n, of in VARIANTS.items())
 
 
+def _sensitivity(args, out, progress):
+    from bipedlab.robots.atrias import sensitivity
+
+    return sensitivity.sensitivity(args["step"], progress=progress)
+
+
+EXPERIMENTS = EXPERIMENTS + (
+    Experiment("sensitivity", "bipedlab experiment atrias sensitivity", _sensitivity, dict(step=-0.1), None,
+               skip_reason="not run in --quick (9 experiments for each of 14 robots)", expected_s=1800),)
+
+
+#: the batched experiments' rows: experiment -> the prefix of its rows' ids (:func:`_stats`)
+BATCHED_PREFIXES = (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"),
+                    ("slope-conservation", "slope_cons"), ("noise", "noise"), ("delay", "delay"))
 _STATS = ("apex_sd_m", "speed_sd_mps", "apex_error_m", "speed_error_mps", "success")
 
 
@@ -227,8 +241,7 @@ def measure(records: dict, quick: bool) -> dict:
                                            f"{trunk['trunk_settle_band_deg']:g} deg by the run's last second")
     elif trunk is not None:
         out["trunk_settle_steps"] = trunk["trunk_settle_steps"]
-    for name, prefix in (("rough", "rough"), ("rough-conservation", "cons"), ("slope", "slope"),
-                         ("slope-conservation", "slope_cons"), ("noise", "noise"), ("delay", "delay")):
+    for name, prefix in BATCHED_PREFIXES:
         out.update(_stats(records.get(name), prefix, missing))
     out.update(_slope_losses(records, missing))
     out.update(_sd_ratios(records, missing))
@@ -242,7 +255,30 @@ def measure(records: dict, quick: bool) -> dict:
         out.update(_stats(records.get(name), name, missing))
     out.update(_model_error_shifts(records, missing, rows))
     out.update(_variants(records, missing))
+    out.update(_with_sensitivity(out, records.get("sensitivity")))
     return {k: v for k, v in out.items() if k in rows}
+
+
+def _with_sensitivity(out: dict, rec) -> dict:
+    """The rows the sensitivity experiment measured, each with its
+    :class:`~bipedlab.report.spec.Sensitivity` (only where the experiment's unscaled value is the
+    row's own: the same run)."""
+    if not rec:
+        return {}
+    new = {}
+    for row, base in rec["base"].items():
+        v = out.get(row)
+        value, facts = (v.value, v.facts) if isinstance(v, Measured) else (v, {})
+        if not isinstance(value, (int, float)) or isinstance(value, bool) or abs(value - base) > 1e-9 * abs(base):
+            continue
+        params = {k: r for k, r in rec["parameters"].items() if r["elasticity"].get(row) is not None}
+        new[row] = Measured(value, facts, sensitivity=Sensitivity(
+            elasticity={k: r["elasticity"][row] for k, r in params.items()},
+            precision={k: r["precision"] for k, r in params.items()}, source=rec["precision_source"],
+            method=rec["method"] + " (experiment sensitivity)",
+            standard_error={k: r["standard_error"][row] for k, r in params.items()
+                            if r["standard_error"].get(row) is not None}))
+    return new
 
 
 def _with_draws(value, per_trial):

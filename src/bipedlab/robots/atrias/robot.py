@@ -59,6 +59,13 @@ class AtriasParams:
     m_f: float = 0.2         # foot point mass per leg (kg)
     tau_max: float = 250.0   # hip torque limit (N m)
     g: float = G
+    # the ground (reference-values.md, after Geyer & Herr 2010): the total weight over each depth
+    # gives the normal and the stiction stiffness (:func:`ground_params`)
+    depth_y: float = 0.01    # normal stiffness k_gy = weight / depth_y (m)
+    depth_x: float = 0.1     # stiction stiffness k_gx = weight / depth_x (m)
+    v_max: float = 0.03      # damping velocity scale (m/s)
+    mu_stick: float = 0.9    # stiction limit
+    mu_slide: float = 0.8    # sliding friction
 
     @property
     def total_mass(self) -> float:
@@ -71,7 +78,7 @@ GroundParams = ss.StickSlipGround
 
 def ground_params(p: AtriasParams) -> GroundParams:
     w = p.total_mass * p.g
-    return GroundParams(k_y=w / 0.01, k_x=w / 0.1)
+    return GroundParams(k_y=w / p.depth_y, k_x=w / p.depth_x, v_max=p.v_max, mu_slide=p.mu_slide, mu_stick=p.mu_stick)
 
 
 @pytree

@@ -65,6 +65,9 @@ class Settings:
     energy_gain: float | None = None  # share of the lift-off energy error a nominal stance removes (eq. 7's c)
     reference_weights: tuple | None = None  # (w_theta, w_phi) of the flight's compensated reference
     per_trial: bool = False  # a batched run's record lists each trial's statistics (``per_trial``)
+    # the robot's values scaled, plant and controller alike (a different robot, the controller made
+    # for it; :data:`bipedlab.robots.atrias.catalog.SCALABLE`): ((name, factor), ...)
+    scale: tuple = ()
 
 
 def parse_model_errors(items) -> tuple:
@@ -89,7 +92,7 @@ def build(st: Settings):
     (cached per model error and energy option)."""
     if st.controller not in catalog.CONTROLLERS:
         raise ValueError(f"controller must be one of {', '.join(catalog.CONTROLLERS)}, got {st.controller!r}")
-    rp, cp, gait, samples = _build(tuple(st.model_error), st.energy)
+    rp, cp, gait, samples = _build(tuple(st.model_error), st.energy, tuple(st.scale))
     if st.energy_gain is not None:  # c is proportional to the gain
         cp = cp.replace(c_energy=cp.c_energy * float(st.energy_gain) / rc.ENERGY_GAIN)
     if st.reference_weights is not None:
@@ -97,12 +100,26 @@ def build(st: Settings):
     return rp, (rc.paper_controller(cp) if st.controller == "paper" else cp), gait, samples
 
 
+def robot(scale=()):
+    """(the robot's :class:`~bipedlab.robots.atrias.robot.AtriasParams`, its spring-mass model's
+    :class:`~bipedlab.control.slip.SlipParams`) with the values of ``scale`` ((name, factor), ...;
+    names of :data:`~bipedlab.robots.atrias.catalog.SCALABLE`) scaled."""
+    sc = dict(scale)
+    bad = sorted(set(sc) - set(catalog.SCALABLE))
+    if bad:
+        raise ValueError(f"scale: unknown value {bad[0]!r}; choose from {', '.join(catalog.SCALABLE)}")
+    rp, smm = at.AtriasParams(), slip.SlipParams()
+    rp = rp.replace(**{k: getattr(rp, k) * f for k, f in sc.items() if hasattr(rp, k)})
+    smm = smm.replace(m=rp.m, **{k: getattr(smm, k) * f for k, f in sc.items() if k in ("k0", "l0")})
+    return rp, smm
+
+
 @functools.lru_cache(maxsize=16)
-def _build(model_error, energy):
-    rp = at.AtriasParams()
+def _build(model_error, energy, scale=()):
+    rp, smm = robot(scale)
     err = dict(model_error)
     s_m, s_i, s_f, s_k = (1 + err.get(k, 0.0) for k in MODEL_ERRORS)
-    mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, 0.8 * s_f, m_f=rp.m_f * s_m)
+    mp = rm.ModelParams(rp.m * s_m, rp.I_t * s_i, rp.I_m * s_i, rp.d, rp.mu_slide * s_f, m_f=rp.m_f * s_m)
     gait = slip.Gait(rc.APEX_HEIGHT, rc.SPEED)
     # A model error is one of the controller's model wherever the controller uses it, the plant
     # keeping its true values (Sec. IV-C: mass and stiffness errors "produce errors in foot placement
@@ -112,17 +129,17 @@ def _build(model_error, energy):
     # true one (ATRIAS's legs are springs: here the virtual spring the stance realises, k0). Scaling
     # that realised spring too would leave the policy consistent with it (no foot-placement error):
     # measured on 8 terrains of 30 m, +-20 % then moved the errors by less than 1 cm and 1.5 cm/s.
-    smm_model, pol, samples = _policy(rp.m * s_m, slip.SlipParams().k0 * s_k, gait)
+    smm_model, pol, samples = _policy(smm.m * s_m, smm.k0 * s_k, gait, smm.l0)
     cp = rc.make_params(mp, smm_model, pol, regulation=(energy == "regulation"),
                         tau_max=rp.tau_max, stiffness_scale=1.0 / s_k)
     return rp, cp, gait, samples
 
 
 @functools.lru_cache(maxsize=16)
-def _policy(m: float, k0: float, gait):
-    """The spring-mass model of mass m and stiffness k0 and its swing policy for gait (cached:
-    the energy options and the inertia and friction errors share the nominal one)."""
-    smm_model = slip.SlipParams(m=m, k0=k0)
+def _policy(m: float, k0: float, gait, l0: float = slip.SlipParams().l0):
+    """The spring-mass model of mass m, stiffness k0 and rest length l0 and its swing policy for
+    gait (cached: the energy options and the inertia and friction errors share the nominal one)."""
+    smm_model = slip.SlipParams(m=m, k0=k0, l0=l0)
     pol, samples = slip.swing_policy(smm_model, gait)
     return smm_model, pol, samples
 
@@ -132,7 +149,7 @@ _FIT: dict = {}
 
 def _fit_error(smm, gait, pol, samples) -> dict:
     """:func:`bipedlab.control.slip.fit_error` of the policy, once per process and model."""
-    key = (float(smm.m), float(smm.k0), float(gait.y_apex), float(gait.speed))
+    key = (float(smm.m), float(smm.k0), float(smm.l0), float(gait.y_apex), float(gait.speed))
     if key not in _FIT:
         _FIT[key] = slip.fit_error(smm, gait, pol, samples)
     return dict(_FIT[key])
@@ -286,8 +303,8 @@ def slip_model(st: Settings, terr, n: int, gait, policy: str = "polynomial"):
     failed before. Counting the failures of the longer scan, on the 1 % slope all 32 draws
     "fell" at 70 to 80 m after losing speed over the 60 m (the paper's "eventually fails by
     losing forward velocity"), and the spreads took in apexes past the robot's distance."""
-    p = slip.SlipParams(m=at.AtriasParams().m)
-    _, pol, samples = _policy(p.m, p.k0, gait)
+    p = robot(st.scale)[1]
+    _, pol, samples = _policy(p.m, p.k0, gait, p.l0)
     if policy == "table":
         pol = slip.policy_table(samples)
     elif policy != "polynomial":
@@ -385,7 +402,8 @@ def study(st: Settings, out_dir=None, progress=None) -> dict:
     if st.terrain == "flat":
         # the paper's pure spring-mass model runs the controller's polynomial (above); beside it the
         # exact policy, and the polynomial's fit error (Sec. IV-A attributes the model's error to it)
-        smm, pol, samples = _policy(float(at.AtriasParams().m), float(slip.SlipParams().k0), gait)
+        p = robot(st.scale)[1]
+        smm, pol, samples = _policy(float(p.m), float(p.k0), gait, float(p.l0))
         srec["policy_fit"] = _fit_error(smm, gait, pol, samples)
         rec["slip_model_exact_policy"] = slip_model(st, terr, n, gait, policy="table")[0]
     if out_dir:
