@@ -1,5 +1,5 @@
 """How Table II's walk on the boom setup moves with the robot's parameters: the elasticity
-d ln(quantity) / d ln(parameter) of its speed, step length, step frequency and c_mt, by central
+d ln(quantity) / d ln(parameter) of its speed, step length, step frequency and c_mt, by forward
 differences of whole walks, for
 
 * every value of Table I the dynamics use (links' lengths, COM distances, masses and inertias;
@@ -25,7 +25,6 @@ import time
 
 import jax
 
-from bipedlab.robots.seven_link import contact as sc
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import setup as su
 from bipedlab.robots.seven_link import study
@@ -52,7 +51,7 @@ def _gait(steps: int, params: str, scale=None, boom_options=None, knee_lock_torq
                                         knee_lock_torque=knee_lock_torque))
     weight = float(sl.total_mass(sl.model(scale=scale))) * sl.GRAVITY
     out = study.gait_metrics(res, weight)
-    out["fell"] = bool(int(res.status) != sc.OK or int(res.n_touchdowns) < steps)
+    out["fell"] = study.walk_fell(res, steps)
     return out
 
 

@@ -316,6 +316,12 @@ def _finite(v):
     return v if np.isfinite(v) else None
 
 
+def walk_fell(res, steps: int) -> bool:
+    """Whether a walk of :func:`run_walk` fell: a failure status, or fewer touchdowns than the
+    ``steps`` asked for."""
+    return bool(int(res.status) != sc.OK or int(res.n_touchdowns) < steps)
+
+
 def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progress=None, sensing: bool = False,
          setup: str = "planar", without=()) -> dict:
     """The walking study: a result record (JSON-ready) and, with ``out``, figures and an NPZ.
@@ -336,7 +342,7 @@ def walk(steps: int = 30, params: str = "tuned", out: str | None = None, progres
     nl = int(res.n_log_used)
     lt, lx, lu = np.asarray(res.log_t[:nl]), np.asarray(res.log_x[:nl]), np.asarray(res.log_u[:nl])
     rec = dict(robot="seven-link", params=params, sensing="section V-A" if sensing else "ideal", steps_requested=steps, steps_completed=n,
-               fell=bool(status != sc.OK or n < steps), status=sc.STATUS_NAMES.get(status, str(status)),
+               fell=walk_fell(res, steps), status=sc.STATUS_NAMES.get(status, str(status)),
                sim_time_s=float(res.t_end))
     rec.update({k: _finite(v) if k != "gait_window_steps" else v for k, v in gait_metrics(res, weight).items()})
     rec["cmt_definition"] = ("sum_i int |u_i dphi_i/dt| dt / (m g distance), over whole steps after the first "
@@ -400,7 +406,7 @@ def parts_table(steps: int = 30, params: str = "paper", progress=None) -> list:
         ph = gait_phases(np.asarray(res.log_t[:nl]), np.asarray(res.log_x[:nl]), np.asarray(res.log_u[:nl]),
                          np.asarray(res.log_active[:nl]), np.asarray(res.td_time[:n]), np.asarray(res.td_foot[:n]))
         m = gait_metrics(res, weight)
-        rows.append(dict(row=label, steps=n, fell=bool(int(res.status) != sc.OK or n < steps),
+        rows.append(dict(row=label, steps=n, fell=walk_fell(res, steps),
                          events_per_step=int(res.n_events) / max(n, 1),
                          **{k: _finite(m[k]) for k in PAPER_GAIT}, **phase_summary(ph)))
     return rows
