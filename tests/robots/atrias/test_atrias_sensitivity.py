@@ -89,6 +89,7 @@ def test_elasticities_pair_each_scaled_run_with_the_unscaled_one_on_the_same_dra
 
     monkeypatch.setattr(study, "study", fake_study)
     rec = sens.sensitivity(step=-0.1, trials=6, parameters=("m", "I_t"), experiments=("mass-20pct",))
+    assert rec["method"].startswith("each value 10% smaller in plant and controller alike")
     assert len(calls) == 3 and all(c.trials == 6 and c.model_error == (("mass", -0.2),) for c in calls)
     assert [c.scale for c in calls] == [(), (("m", 0.9),), (("I_t", 0.9),)]
     assert rec["runs"] == 3 and set(rec["base"]) == {f"mass-20pct_{q}" for q in ("apex_sd_m", "apex_error_m", "speed_error_mps")}
@@ -134,27 +135,33 @@ def test_short_sensitivity_obeys_the_physics(short):
 def test_the_report_attaches_the_sensitivity_to_the_rows_it_measured():
     base = {"flat_speed_error_mps": 0.07, "mass-20pct_apex_error_m": -0.05}
     short = dict(base=base, method="m", precision_source="s", parameters=dict(
-        tau_max=dict(precision=None, elasticity={"flat_speed_error_mps": -0.5, "mass-20pct_apex_error_m": 0.3},
+        tau_max=dict(what="hip torque limit (250 N m)", precision=None, elasticity={"flat_speed_error_mps": -0.5, "mass-20pct_apex_error_m": 0.3},
                      standard_error={"flat_speed_error_mps": None, "mass-20pct_apex_error_m": 0.1}),
-        mu_slide=dict(precision=0.0625, elasticity={"flat_speed_error_mps": None, "mass-20pct_apex_error_m": 1.0},
+        mu_slide=dict(what="ground sliding friction (0.8)", precision=0.0625, elasticity={"flat_speed_error_mps": None, "mass-20pct_apex_error_m": 1.0},
                       standard_error={"flat_speed_error_mps": None, "mass-20pct_apex_error_m": 0.2})))
     out = rr._with_sensitivity({"flat_speed_error_mps": base["flat_speed_error_mps"],
                                 "mass-20pct_apex_error_m": base["mass-20pct_apex_error_m"] + 1e-3}, short)
     # the same run's value gets its sensitivity; another run's value (here shifted) does not
     assert set(out) == {"flat_speed_error_mps"}
     s = out["flat_speed_error_mps"].sensitivity
-    # a parameter with no elasticity for the row is left out; a deterministic row has no standard errors
-    assert s.elasticity == {"tau_max": -0.5} and s.precision == {"tau_max": None} and s.standard_error == {}
+    # named by what they are; a parameter with no elasticity for the row is left out; a
+    # deterministic row has no standard errors
+    assert s.elasticity == {"hip torque limit": -0.5} and s.precision == {"hip torque limit": None}
+    assert s.standard_error == {} and s.method.startswith("experiment sensitivity: ")
     both = rr._with_sensitivity({"mass-20pct_apex_error_m": rr.Measured(-0.05, dict(reference=0.02))}, short)
     s = both["mass-20pct_apex_error_m"]
-    assert s.facts == dict(reference=0.02) and s.sensitivity.standard_error == {"tau_max": 0.1, "mu_slide": 0.2}
-    assert s.sensitivity.precision == {"tau_max": None, "mu_slide": 0.0625}
+    assert s.facts == dict(reference=0.02)
+    assert s.sensitivity.standard_error == {"hip torque limit": 0.1, "ground sliding friction": 0.2}
+    assert s.sensitivity.precision == {"hip torque limit": None, "ground sliding friction": 0.0625}
 
 
 def test_stated_precisions_are_printed_digits():
     assert catalog.SCALABLE["I_t"][1] == pytest.approx(0.005 / 1.37)
     assert catalog.SCALABLE["mu_slide"][1] == pytest.approx(0.0625)
     assert all(v[1] is None for k, v in catalog.SCALABLE.items() if k in ("m", "d", "I_m", "m_f", "tau_max", "l0"))
+    # the report names each value by what it is: one name each
+    labels = [v[0].split(" (")[0] for v in catalog.SCALABLE.values()]
+    assert len(set(labels)) == len(labels)
 
 
 @pytest.mark.parametrize("argv,needle", [

@@ -271,11 +271,12 @@ def _with_sensitivity(out: dict, rec) -> dict:
         value, facts = (v.value, v.facts) if isinstance(v, Measured) else (v, {})
         if not isinstance(value, (int, float)) or isinstance(value, bool) or abs(value - base) > 1e-9 * abs(base):
             continue
-        params = {k: r for k, r in rec["parameters"].items() if r["elasticity"].get(row) is not None}
+        # named in the row's text by what they are: "trunk mass (59 kg)" -> "trunk mass"
+        params = {r["what"].split(" (")[0]: r for r in rec["parameters"].values() if r["elasticity"].get(row) is not None}
         new[row] = Measured(value, facts, sensitivity=Sensitivity(
             elasticity={k: r["elasticity"][row] for k, r in params.items()},
             precision={k: r["precision"] for k, r in params.items()}, source=rec["precision_source"],
-            method=rec["method"] + " (experiment sensitivity)",
+            method="experiment sensitivity: " + rec["method"],
             standard_error={k: r["standard_error"][row] for k, r in params.items()
                             if r["standard_error"].get(row) is not None}))
     return new

@@ -31,8 +31,8 @@ from bipedlab.robots.atrias import catalog
 EXPERIMENTS = ("flat", "rough", "rough-conservation", "slope", "delay", "mass+20pct", "mass-20pct",
                "stiffness+20pct", "stiffness-20pct")
 STEP = -0.1
-PRECISION_SOURCE = ("the printed digits of the values' sources (half a unit of the last one: the ATRIAS parameter "
-                    "sheet, Geyer & Herr 2010's ground); the paper gives only about 60 kg and legs about 1 m")
+PRECISION_SOURCE = ("the printed digits of the ATRIAS parameter sheet and of Geyer & Herr 2010's ground; the paper "
+                    "gives only about 60 kg and legs about 1 m")
 
 
 def _settings(name: str, trials=None, distance=None):
@@ -175,8 +175,8 @@ def sensitivity(step: float = STEP, trials=None, distance=None, parameters=None,
         rows[name] = dict(what=what, precision=precision, source=source, elasticity=e, standard_error=se,
                           scaled=scaled)
     return dict(step=step, experiments=list(experiments), trials=trials, distance_m=distance,
-                method=(f"backward differences of whole runs at {step:+.0%} of each value, plant and controller alike, "
-                        "on the rows' own terrain draws (standard errors: jackknife over the draws)"),
+                method=(f"each value {abs(step):.0%} {'smaller' if step < 0 else 'larger'} in plant and controller alike, "
+                        "the runs repeated on the rows' own terrain draws, jackknife standard errors over the draws"),
                 precision_source=PRECISION_SOURCE, base=base, parameters=rows, runs=len(experiments) * (1 + len(names)),
                 wall_time_s=time.perf_counter() - t0)
 
