@@ -85,7 +85,7 @@ def test_the_model_error_runs_draw_the_first_terrains_of_the_error_free_run():
 
     def heights(experiment):
         e = next(x for x in R.EXPERIMENTS if x.name == experiment)
-        st = R._settings(e.full_args)
+        st = R.study_settings(e.full_args)
         return np.asarray(study.make_terrains(st, st.trials, 72.0).heights)
 
     free, err = heights("rough-conservation"), heights("stiffness-20pct")

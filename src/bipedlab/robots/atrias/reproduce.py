@@ -28,7 +28,7 @@ DISTANCE, QUICK_DISTANCE = 60.0, 30.0
 ANIMATION_S = 3.0
 
 
-def _settings(args):
+def study_settings(args):
     from bipedlab.robots.atrias import study
 
     keys = ("terrain", "step_height", "distance", "noise", "delay_ms", "energy", "trials", "seed", "rough_grade_percent",
@@ -42,7 +42,7 @@ def _settings(args):
 def _run(args, out, progress):
     from bipedlab.robots.atrias import study
 
-    st = _settings(args)
+    st = study_settings(args)
     single = st.trials is None
     figures = args.get("figures", single)
     rec = study.study(st, out_dir=out if figures else None, progress=None)
@@ -140,12 +140,12 @@ def _err(name, rel):
     return _rough(energy="conservation", trials=ERR_TRIALS, model_error={name: rel})
 
 
-#: the model errors of Sec. IV-C, each an experiment named by :func:`_err_name`
+#: the model errors of Sec. IV-C, each an experiment named by :func:`error_name`
 ERRORS = (("mass", 0.2), ("mass", -0.2), ("stiffness", 0.2), ("stiffness", -0.2),
           ("inertia", 0.5), ("inertia", -0.5), ("friction", 0.5), ("friction", -0.5))
 
 
-def _err_name(name, rel) -> str:
+def error_name(name, rel) -> str:
     return f"{name}{rel:+.0%}".replace("%", "pct")
 
 
@@ -170,7 +170,7 @@ EXPERIMENTS = (
     Experiment("delay", f"bipedlab run atrias --terrain rough --energy conservation --delay-ms 10 --trials {TRIALS}",
                _run, DELAY, _quick(DELAY), reduction=_R + _SD, expected_s=40, quick_expected_s=4),
 ) + tuple(
-    Experiment(_err_name(name, rel),
+    Experiment(error_name(name, rel),
                f"bipedlab run atrias --terrain rough --energy conservation --model-error {name}={rel:g} "
                f"--trials {ERR_TRIALS}", _run, _err(name, rel), _quick(_err(name, rel)),
                reduction=_R_ERR + _SD, expected_s=30, quick_expected_s=4)
@@ -251,7 +251,7 @@ def measure(records: dict, quick: bool) -> dict:
         out["rough_slip_apex_sd_m"] = _with_draws(dig(rough, "slip_model", "apex_height_sd_m"),
                                                   dig(rough, "slip_model", "per_trial", default=None))
         out["rough_slip_speed_sd_mps"] = dig(rough, "slip_model", "speed_sd_mps")
-    for name in (_err_name(n, rel) for n, rel in ERRORS):
+    for name in (error_name(n, rel) for n, rel in ERRORS):
         out.update(_stats(records.get(name), name, missing))
     out.update(_model_error_shifts(records, missing, rows))
     out.update(_variants(records, missing))
@@ -318,7 +318,7 @@ def _model_error_shifts(records: dict, missing: Skip, rows: dict) -> dict:
     free = records.get("rough-conservation")
     out = {}
     keys = (("apex_error_m", "apex_height_error_mean_m"), ("speed_error_mps", "speed_error_mean_mps"))
-    for name in (_err_name(n, rel) for n, rel in ERRORS if n in ("mass", "stiffness")):
+    for name in (error_name(n, rel) for n, rel in ERRORS if n in ("mass", "stiffness")):
         rec = records.get(name)
         if rec is None or free is None:
             out.update({f"{name}_{q}": missing for q, _ in keys})
@@ -401,7 +401,7 @@ def _sd_ratios(records: dict, missing: Skip) -> dict:
     the same kind of terrain (experiment rough-conservation): "very little effect" (Sec. IV-C)."""
     free = dig(records.get("rough-conservation"), "apex_height_sd_m") if records.get("rough-conservation") else None
     out = {}
-    for name in (_err_name(n, rel) for n, rel in ERRORS if n in ("inertia", "friction")):
+    for name in (error_name(n, rel) for n, rel in ERRORS if n in ("inertia", "friction")):
         rec = records.get(name)
         sd = dig(rec, "apex_height_sd_m") if rec is not None else None
         out[f"{name}_apex_sd_ratio"] = (missing if rec is None or records.get("rough-conservation") is None

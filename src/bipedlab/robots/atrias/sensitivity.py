@@ -43,7 +43,7 @@ def _settings(name: str, trials=None, distance=None):
         args["trials"] = int(trials)
     if distance is not None:
         args["distance"] = float(distance)
-    return reproduce._settings(args)
+    return reproduce.study_settings(args)
 
 
 #: a pooled statistic -> the key of a batched record that holds it (:func:`study.study`)
@@ -86,7 +86,7 @@ def row_statistics() -> dict:
 
     stats = {"apex_sd_m": "sd", "apex_error_m": "height", "speed_error_mps": "speed"}
     prefixes = dict(reproduce.BATCHED_PREFIXES)
-    prefixes.update({reproduce._err_name(n, r): reproduce._err_name(n, r) for n, r in reproduce.ERRORS})
+    prefixes.update({reproduce.error_name(n, r): reproduce.error_name(n, r) for n, r in reproduce.ERRORS})
     out = {f"{prefix}_{q}": (name, (), s) for name, prefix in prefixes.items() for q, s in stats.items()}
     out["rough_slip_apex_sd_m"] = ("rough", ("slip_model",), "sd")
     return out
