@@ -158,3 +158,44 @@ def dig(record: Any, *path, default=None):
         except (KeyError, IndexError, TypeError):
             return default
     return default if x is None else x
+
+
+def printed_precision(text: str) -> float:
+    """The relative precision a value's printed form states: half a unit of its last digit over
+    the value ("40.8953": 0.00005 / 40.8953; "9.0144e-4": 0.00005e-4 / 9.0144e-4; "30": 0.5 / 30)."""
+    from decimal import Decimal, InvalidOperation
+
+    try:
+        d = Decimal(text.strip())
+    except (InvalidOperation, AttributeError):
+        raise ValueError(f"not a printed number: {text!r}") from None
+    if not d.is_finite() or d == 0:
+        raise ValueError(f"a printed precision needs a finite nonzero number, got {text!r}")
+    return float(Decimal("0.5").scaleb(d.as_tuple().exponent) / abs(d))
+
+
+def with_sensitivity(values: dict, rec: Optional[dict], rel: float = 1e-9) -> dict:
+    """The rows of ``values`` ({row id: value or :class:`Measured`}) that a sensitivity record
+    measured, each as a :class:`Measured` carrying its :class:`Sensitivity`, where the record's
+    unscaled value (``rec["base"][row]``) is the row's own within ``rel`` (the same run, or the
+    same optimum found again). ``rec``: ``base`` {row: value}; ``parameters`` {name: {precision,
+    elasticity {row: value or None}, standard_error {row: value} (optional)}}; ``precision_source``;
+    ``method``. A parameter whose elasticity of a row is None (its scaled run failed) is left out
+    of that row's."""
+    if not rec:
+        return {}
+    new = {}
+    for row, base in rec["base"].items():
+        v = values.get(row)
+        value, facts = (v.value, v.facts) if isinstance(v, Measured) else (v, {})
+        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (value, base)) \
+                or abs(value - base) > rel * abs(base):
+            continue
+        params = {k: r for k, r in rec["parameters"].items() if r["elasticity"].get(row) is not None}
+        new[row] = Measured(value, facts, sensitivity=Sensitivity(
+            elasticity={k: r["elasticity"][row] for k, r in params.items()},
+            precision={k: r["precision"] for k, r in params.items()}, source=rec["precision_source"],
+            method=rec["method"],
+            standard_error={k: r["standard_error"][row] for k, r in params.items()
+                            if (r.get("standard_error") or {}).get(row) is not None}))
+    return new

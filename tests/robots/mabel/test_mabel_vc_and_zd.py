@@ -278,7 +278,8 @@ def test_shipped_gaits_respect_the_torque_capacity(name):
     peak = np.asarray(rec["design"]["peak_torques"])
     assert peak.shape == (4,)
     assert np.all(peak <= np.array([30.0, 55.0, 30.0, 55.0]))
-    assert np.asarray(md.LIMITS) == pytest.approx([30.0, 55.0, 30.0, 55.0])
+    # the design's bound (design.evaluate) is the model's, in the inputs' order (leg angle, leg shape) per leg
+    assert np.asarray(wk.walking_model().drive.torque_limit) == pytest.approx([30.0, 55.0, 30.0, 55.0])
 
 
 def test_spring_does_most_of_the_negative_work_at_the_stance_leg_shape(nominal):

@@ -47,23 +47,55 @@ TOES = ("toe_L", "toe_R")
 PAPER_Q_H = ("la_L", "mla_L", "ls_L", "mls_L", "bsp_L", "la_R", "mla_R", "ls_R", "mls_R", "bsp_R", "tor", "x", "y")
 PAPER_Q_E = ("la_L", "mls_L", "bsp_L", "la_R", "mls_R", "bsp_R", "tor", "x", "y")
 _H = {c: i for i, c in enumerate(COORDS_13)}
+#: The published values a model can be built with scaled (``scale``: pairs (name, factor) of
+#: :func:`hopping_model`, :func:`rigid_model`, :func:`drivetrain`), each a row of
+#: :mod:`~bipedlab.robots.mabel.tables`; for the sensitivity of the walking experiments
+#: (:mod:`bipedlab.robots.mabel.walking.sensitivity`). Both sides' values scale together.
+SCALABLE = {
+    "torso mass": "Table VII", "torso COM height": "Table VII", "torso inertia": "Table VII",
+    "thigh mass": "Table VII", "thigh inertia": "Table VII", "shin mass": "Table VII", "shin inertia": "Table VII",
+    "thigh length": "THIGH_LENGTH", "shin length": "SHIN_LENGTH",
+    "boom mass": "Table VII", "boom inertia": "Table VII",
+    "leg-shape rotor inertia": "Table VIII", "leg-angle rotor inertia": "Table VIII",
+    "spring stiffness": "Fig. 19", "spring damping": "Table VI", "motor friction": "Table V",
+    "torque capacity": "HZD paper",
+}
+
+
+def _factors(scale) -> dict:
+    """{name: factor} of ``scale`` (pairs or a mapping), every name checked against SCALABLE."""
+    f = dict(scale or ())
+    unknown = sorted(set(f) - set(SCALABLE))
+    if unknown:
+        raise ValueError(f"unknown MABEL parameter(s) {', '.join(unknown)}; known: {', '.join(SCALABLE)}")
+    return f
+
+
 #: h-coordinate index of each actuator's motor, in tables.ACTUATORS order.
 MOTOR_INDEX = tuple(_H[a[:3].lower() + "_" + a[-1]] for a in tb.ACTUATORS)
 
 
-def _tree():
-    bodies = [_body("torso", None)]
+def _tree(f: dict):
+    thigh, shin = tb.THIGH_LENGTH * f.get("thigh length", 1.0), tb.SHIN_LENGTH * f.get("shin length", 1.0)
+    bodies = [_body(f, "torso", None)]
     points = [Point("hip", "torso", (0.0, 0.0)), Point("head", "torso", (0.0, 0.6))]
     for s in tb.SIDES:
-        bodies += [_body("thigh", "torso", s), _body("shin", f"thigh_{s}", s, (0.0, tb.THIGH_LENGTH)),
-                   _body("csp", "torso", s), _body("csh", "torso", s)]
-        points += [Point(f"toe_{s}", f"shin_{s}", (0.0, tb.SHIN_LENGTH)),
-                   Point(f"knee_{s}", f"thigh_{s}", (0.0, tb.THIGH_LENGTH))]
+        bodies += [_body(f, "thigh", "torso", s), _body(f, "shin", f"thigh_{s}", s, (0.0, thigh)),
+                   _body(f, "csp", "torso", s), _body(f, "csh", "torso", s)]
+        points += [Point(f"toe_{s}", f"shin_{s}", (0.0, shin)), Point(f"knee_{s}", f"thigh_{s}", (0.0, thigh))]
     return build_model(bodies, points, base_names=("x", "y", "tor"), actuated=())
 
 
-def _body(kind, parent, side=None, offset=(0.0, 0.0)):
+def link(kind: str, scale=()) -> tuple:
+    """Table VII's (mass, COM, inertia about the joint) of link ``kind``, scaled by ``scale``."""
+    f = _factors(scale)
     m, com, i_joint = tb.LINKS[kind]
+    return (m * f.get(f"{kind} mass", 1.0), (com[0], com[1] * f.get(f"{kind} COM height", 1.0)),
+            i_joint * f.get(f"{kind} inertia", 1.0))
+
+
+def _body(f: dict, kind, parent, side=None, offset=(0.0, 0.0)):
+    m, com, i_joint = link(kind, f)
     i_com = i_joint - m * (com[0] ** 2 + com[1] ** 2)
     name = kind if side is None else f"{kind}_{side}"
     return Body(name, parent, m, com, i_com, offset=offset)
@@ -84,7 +116,7 @@ def _tree_map() -> np.ndarray:
     return T
 
 
-def _rotors():
+def _rotors(f: dict):
     rates = tr.pulley_rates()
     out = []
     for s in tb.SIDES:
@@ -95,13 +127,15 @@ def _rotors():
             ratio[idx] += local
             if name in ("mLA", "mLS"):
                 act = f"{name}_{s}"
-                inertia = tb.ALPHA[act] * tb.ROTOR_INERTIA[name]
+                what = "leg-shape" if name == "mLS" else "leg-angle"
+                inertia = tb.ALPHA[act] * tb.ROTOR_INERTIA[name] * f.get(f"{what} rotor inertia", 1.0)
             else:
                 inertia = tb.PULLEY_INERTIA[name]
             out.append((f"{name}_{s}", inertia, ratio))
     R = tb.BOOM["radius"]
-    out.append(("boom_yaw", tb.BOOM["inertia"], np.eye(13)[0] / R))
-    out.append(("boom_pitch", tb.BOOM["inertia"], np.eye(13)[1] / R))
+    boom = tb.BOOM["inertia"] * f.get("boom inertia", 1.0)
+    out.append(("boom_yaw", boom, np.eye(13)[0] / R))
+    out.append(("boom_pitch", boom, np.eye(13)[1] / R))
     return out
 
 
@@ -139,14 +173,17 @@ class Drivetrain:
 
 
 
-def drivetrain() -> Drivetrain:
-    f = lambda v: jnp.asarray(v, dtype=jnp.float64)  # noqa: E731
-    per = lambda d: f([d[a] for a in tb.ACTUATORS])  # noqa: E731
+def drivetrain(scale=()) -> Drivetrain:
+    """The published drivetrain (``scale``: as :func:`hopping_model`'s)."""
+    k = _factors(scale)
+    f = lambda v, name=None: jnp.asarray(v, dtype=jnp.float64) * k.get(name, 1.0)  # noqa: E731
+    per = lambda d, name=None: f([d[a] for a in tb.ACTUATORS], name)  # noqa: E731
     return Drivetrain(
-        kt=per(tb.KT), bias=per(tb.BIAS), friction=per(tb.FRICTION), cable_k=per(tb.CABLE_K),
-        cable_d=per(tb.CABLE_D), spring_k=f([tb.SPRING_K[s] for s in tb.SIDES]), spring_d=f(tb.SPRING_DAMPING),
+        kt=per(tb.KT), bias=per(tb.BIAS), friction=per(tb.FRICTION, "motor friction"), cable_k=per(tb.CABLE_K),
+        cable_d=per(tb.CABLE_D), spring_k=f([tb.SPRING_K[s] for s in tb.SIDES], "spring stiffness"),
+        spring_d=f(tb.SPRING_DAMPING, "spring damping"),
         kd1=f(tb.HARD_STOP["kd1"]), kvd1=f(tb.HARD_STOP["kvd1"]), kvd2=f(tb.HARD_STOP["kvd2"]),
-        torque_limit=f([tb.TORQUE_CAPACITY[a[:3]] for a in tb.ACTUATORS]),
+        torque_limit=f([tb.TORQUE_CAPACITY[a[:3]] for a in tb.ACTUATORS], "torque capacity"),
     )
 
 
@@ -174,17 +211,21 @@ class Mabel:
 
 
 
-def hopping_model(ground=None, drive=None) -> Mabel:
-    """The 13-DoF model with cable stretch (Section VIII-A)."""
+def hopping_model(ground=None, drive=None, scale=()) -> Mabel:
+    """The 13-DoF model with cable stretch (Section VIII-A). ``scale``: pairs (name, factor)
+    of :data:`SCALABLE` values built scaled (the drivetrain's only where ``drive`` is not given);
+    the model's leaves change, its structure does not, so compiled programs taking the model as
+    an argument serve every scaled one."""
+    f = _factors(scale)
     w = np.zeros(13)
-    w[1] = tb.BOOM["mass"] * 9.81 * tb.BOOM["com"] / tb.BOOM["radius"]
-    body = cp.coupled(_tree(), _tree_map(), _rotors(), COORDS_13, weight=w)
-    return Mabel(body, drive or drivetrain(), ground or cg.make(**tb.GROUND), cp.static_matrix(np.eye(13)))
+    w[1] = tb.BOOM["mass"] * f.get("boom mass", 1.0) * 9.81 * tb.BOOM["com"] / tb.BOOM["radius"]
+    body = cp.coupled(_tree(f), _tree_map(), _rotors(f), COORDS_13, weight=w)
+    return Mabel(body, drive or drivetrain(scale), ground or cg.make(**tb.GROUND), cp.static_matrix(np.eye(13)))
 
 
-def rigid_model(ground=None, drive=None) -> Mabel:
-    """The 9-DoF rigid-cable model (HZD paper, q_e)."""
-    full = hopping_model(ground, drive)
+def rigid_model(ground=None, drive=None, scale=()) -> Mabel:
+    """The 9-DoF rigid-cable model (HZD paper, q_e); ``scale`` as :func:`hopping_model`'s."""
+    full = hopping_model(ground, drive, scale)
     E = rigid_map()
     return full.replace(body=cp.restrict(full.body, E, COORDS_9), E=cp.static_matrix(E))
 

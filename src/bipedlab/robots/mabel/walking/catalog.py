@@ -62,14 +62,15 @@ DESIGN_MODELS = ("full", "paper")
 COSTS = ("torque", "cmt")
 #: the experiments of ``experiment mabel`` (:mod:`.experiments`)
 EXPERIMENTS = ("nominal", "push", "efficient", "tracking", "impact-scaling", "fast", "sweep", "pd-gains", "exp4",
-               "full-plant")
+               "full-plant", "sensitivity")
 #: the push experiment's step (counted from 0)
 PUSH_STEP = 10
 #: impact-scaling: the steady speed is the mean over the last STEADY_STEPS steps
 STEADY_STEPS = 10
 #: experiments that walk no fixed number of steps, and why --steps does not apply to them
 NO_STEPS = {"sweep": "the sweep designs gaits, it does not walk them",
-            "pd-gains": "the eigenvalues come from the return map, not a walk"}
+            "pd-gains": "the eigenvalues come from the return map, not a walk",
+            "sensitivity": "the sensitivity designs the gaits again on scaled models, it does not walk them"}
 #: the largest horizontal push force of ``walk mabel --push``, N (the robot weighs about 650 N)
 PUSH_FORCE = 1000.0
 

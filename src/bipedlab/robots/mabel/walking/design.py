@@ -66,7 +66,6 @@ TORSO_TRAVEL = float(np.deg2rad(5.0))
 TORSO_SHARPNESS = 2000.0
 #: default upper bound on the step length (m): inactive unless a caller lowers it
 MAX_STEP = 2.0
-LIMITS = jnp.asarray([tb.TORQUE_CAPACITY["mLA"], tb.TORQUE_CAPACITY["mLS"]] * 2)
 
 
 @dataclasses.dataclass(frozen=True)
@@ -148,7 +147,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP, clearance=0.
     step_length = tr.step[0]
     T = wf[3]
     v = step_length / T
-    weight = zd.robot_mass() * 9.81
+    weight = zd.robot_mass(m) * 9.81
     zs = jnp.concatenate([qss, qdss], 1)
     grf = jax.vmap(lambda z, u: wk.ground_reaction(m, z, u))(zs, us)
     toe = jax.vmap(lambda z: wk.swing_toe(m, z)[1])(zs)
@@ -170,7 +169,7 @@ def evaluate(m, x, speed, eta=1.0, min_step=0.0, max_step=MAX_STEP, clearance=0.
                    zp[8] * 0.2]),
         (ws[NODES[0]:, 0] - BSP_MIN) * 10,
         (jnp.deg2rad(220.0) - qss[:, 3]) * 5, (qss[:, 0] - jnp.deg2rad(140.0)) * 5,
-        (1.0 - jnp.abs(us) / LIMITS).ravel(),
+        (1.0 - jnp.abs(us) / m.drive.torque_limit).ravel(),
         jnp.stack([(step_length - min_step) * 5, (max_step - step_length) * 5]),
         jnp.stack([torso_travel_margin(qss, starts, zm) * 5]),
     ])

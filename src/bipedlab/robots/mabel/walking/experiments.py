@@ -850,9 +850,19 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
     return r
 
 
+def sensitivity(steps, progress, out, parameters=None, step: float = 0.01):
+    """The designed gaits' rows as functions of MABEL's published values
+    (:func:`bipedlab.robots.mabel.walking.sensitivity.sensitivity`)."""
+    from bipedlab.robots.mabel.walking import sensitivity as ws
+
+    if steps is not None:
+        raise ValueError(f"sensitivity: --steps does not apply ({catalog.NO_STEPS['sensitivity']})")
+    return ws.sensitivity(step=step, parameters=parameters, progress=progress)
+
+
 _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tracking,
         "impact-scaling": impact_scaling, "fast": fast, "sweep": sweep, "pd-gains": pd_gains, "exp4": exp4,
-        "full-plant": full_plant}
+        "full-plant": full_plant, "sensitivity": sensitivity}
 
 
 def run(name: str, steps=None, out=None, progress=None, **options) -> dict:
@@ -917,6 +927,10 @@ def summary(r: dict) -> str:
     name = r["experiment"]
     if name == "full-plant":
         return summary_full_plant(r)
+    if name == "sensitivity":
+        from bipedlab.robots.mabel.walking import sensitivity as ws
+
+        return ws.summary(r)
     if name in ("nominal", "efficient", "fast"):
         text = wm.summary_walk(r)
         if name == "fast":

@@ -44,14 +44,16 @@ _S = np.array([_E[c] for c in STANCE])
 SWAP = tuple(_E[c.replace("_L", "_X").replace("_R", "_L").replace("_X", "_R")] for c in COORDS_9)
 
 
-@functools.lru_cache(maxsize=4)
-def walking_model(ideal: bool = True, kernel: str = "auto") -> Mabel:
+@functools.lru_cache(maxsize=32)
+def walking_model(ideal: bool = True, kernel: str = "auto", scale: tuple = ()) -> Mabel:
     """The 9-DoF rigid-cable model used for walking (ideal actuators by default). One object
     per process and arguments (the model is a frozen pytree): the walking loop is compiled once
     per (model, controller) (:func:`bipedlab.robots.mabel.walking.loop.closed_loop`), so every
     walk reuses its program. ``kernel``: the mechanics' form
-    (:class:`bipedlab.mechanics.coupled.Coupled`); ``"scalar"`` for trials batched with vmap."""
-    m = rigid_model()
+    (:class:`bipedlab.mechanics.coupled.Coupled`); ``"scalar"`` for trials batched with vmap.
+    ``scale``: pairs (name, factor) of published values built scaled
+    (:data:`bipedlab.robots.mabel.model.SCALABLE`)."""
+    m = rigid_model(scale=scale)
     if ideal:
         d = m.drive
         m = m.replace(drive=d.replace(kt=jnp.ones_like(d.kt), bias=jnp.zeros_like(d.bias)))

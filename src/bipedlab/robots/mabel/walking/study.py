@@ -113,7 +113,7 @@ def _eig_summary(J) -> dict:
 
 
 def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_check: bool = False,
-             design_model: str = "full") -> dict:
+             design_model: str = "full", model=None) -> dict:
     """Eigenvalues of the restricted map (eq. 48, compliant HZD controller) and of the full
     closed-loop map (eq. 44) under each controller, at their own fixed points; with fd_check,
     the largest relative difference between the autodiff and central-difference Jacobians.
@@ -121,8 +121,9 @@ def poincare(design: md.Design, gains: ctl.Gains, controllers=("pdff",), fd_chec
     The full maps run on the walking model (the plant of ``walk mabel``). The restricted map
     runs on the zero dynamics the gait was designed on: for ``design_model="paper"`` those
     have no friction or spring damping (the paper's eq. 48), and the walking model's zero
-    dynamics, which lose energy to both, have no periodic orbit near such a gait."""
-    m = wk.walking_model()
+    dynamics, which lose energy to both, have no periodic orbit near such a gait. ``model``: the
+    walking model (default :func:`~bipedlab.robots.mabel.walking.stance.walking_model`'s)."""
+    m = wk.walking_model() if model is None else model
     m_zd = m if design_model == "full" else md.design_model(m, design_model)
     vc = jax.tree_util.tree_map(jnp.asarray, design.vc)
     z0, x0 = md.section_state(m_zd, design)
@@ -171,13 +172,13 @@ STEP_CONTINUATION = 0.03
 
 
 def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=None, design_model: str = "paper",
-                clearance: float = 0.0):
+                clearance: float = 0.0, model=None):
     """Optimise (torque cost first; for c_mt, continue from the torque optimum) on the design
     model ``design_model`` (:data:`~bipedlab.robots.mabel.walking.design.DESIGN_MODELS`). With
     ``step_length`` (m) the step is prescribed, reached from the nearest shipped gait by
     continuation in increments of at most STEP_CONTINUATION; ``clearance`` (m): the swing toe's
-    least mid-step height (:func:`~bipedlab.robots.mabel.walking.design.evaluate`). Returns (design, info with warm
-    and cold times)."""
+    least mid-step height (:func:`~bipedlab.robots.mabel.walking.design.evaluate`); ``model``: the walking model
+    the design model is made from (default the published one). Returns (design, info with warm and cold times)."""
     say = progress or (lambda msg: None)
     start, L0 = "given start", None
     if x0 is None:
@@ -188,9 +189,9 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
         lengths = list(np.linspace(L0, step_length, n + 1)[1:])
     t0 = time.perf_counter()
     say(f"compiling the gait-design problem (speed {speed} m/s); start: {start}")
-    md.compile_problem(speed, "torque", kind=design_model)
+    md.compile_problem(speed, "torque", model=model, kind=design_model)
     if cost == "cmt":
-        md.compile_problem(speed, "cmt", kind=design_model)
+        md.compile_problem(speed, "cmt", model=model, kind=design_model)
     cold_compile = time.perf_counter() - t0
     its, wall = 0, 0.0
     d = None
@@ -199,37 +200,37 @@ def design_gait(speed: float, cost: str, x0=None, progress=None, step_length=Non
         if L is not None:
             say(f"step length {L:.3f} m")
         d, info = md.optimize(speed, "torque", x0=x0 if d is None else d.x, kind=design_model, clearance=clearance,
-                              **window)
+                              model=model, **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     if cost == "cmt":
         say("continuing from the torque optimum with the c_mt cost")
-        d, info = md.optimize(speed, "cmt", x0=d.x, kind=design_model, clearance=clearance, **window)
+        d, info = md.optimize(speed, "cmt", x0=d.x, kind=design_model, clearance=clearance, model=model, **window)
         its, wall = its + info["iterations"], wall + info["wall_s"]
     info.update(iterations=its, warm_s=wall, cold_s=cold_compile + wall, start=start)
     return d, info
 
 
 def optimize(speed: float, cost: str, save=None, out=None, poincare_check: bool = True, progress=None,
-             step_length=None, design_model: str = "paper", x0=None, clearance: float = 0.0) -> dict:
+             step_length=None, design_model: str = "paper", x0=None, clearance: float = 0.0, model=None) -> dict:
     """Design a gait (:func:`design_gait`) on ``design_model`` and report it; the u* regression
     of PD + feedforward follows the design model's orbit, the Poincaré analysis runs on the
-    walking model (the plant of ``walk mabel``)."""
+    walking model (the plant of ``walk mabel``; ``model``, default the published one)."""
     say = progress or (lambda msg: None)
     d, info = design_gait(speed, cost, x0=x0, progress=progress, step_length=step_length, design_model=design_model,
-                          clearance=clearance)
-    m = wk.walking_model()
+                          clearance=clearance, model=model)
+    m = wk.walking_model() if model is None else model
     m_design = m if design_model == "full" else md.design_model(m, design_model)
     gains = md.controller_gains(m_design, d)
     pc = None
     if poincare_check:
         say("Poincaré analysis: restricted map (HZD) and full map under PD + feedforward")
-        pc = poincare(d, gains, controllers=("pdff",), design_model=design_model)
+        pc = poincare(d, gains, controllers=("pdff",), design_model=design_model, model=m)
     f = d.figures
     rec = dict(
         robot="mabel", speed_mps=float(f["speed"]), cost=cost, step_length_m=float(f["step_length"]),
         period_s=float(f["period"]), cmt=float(f["cmt"]), torque_cost=float(f["torque_cost"]),
         peak_torques_nm=[float(v) for v in f["peak_torques"]],
-        torque_capacity_nm=[float(v) for v in np.asarray(md.LIMITS)],
+        torque_capacity_nm=[float(v) for v in np.asarray(m_design.drive.torque_limit)],
         negative_work_fraction_spring=float(f["negative_work_fraction_spring"]),
         negative_work_spring_j=float(f["neg_work_spring"]), negative_work_motor_j=float(f["neg_work_motor"]),
         optimize_warm_s=float(info["warm_s"]), optimize_cold_s=float(info["cold_s"]),

@@ -106,7 +106,10 @@ def spring_guard(th, w):
     return w[0] - vcm.SPRING_TRIGGER
 
 
-def robot_mass() -> float:
-    """Mass of the robot without the boom (kg), the M of c_mt (eq. 40)."""
+def robot_mass(m=None):
+    """Mass of the robot without the boom (kg), the M of c_mt (eq. 40): the published links'
+    (a float), or model ``m``'s (its links' masses summed, traced)."""
+    if m is not None:
+        return jnp.sum(m.body.tree.mass)
     legs = sum(tb.LINKS[k][0] for k in ("csp", "csh", "thigh", "shin"))
     return float(tb.LINKS["torso"][0] + 2 * legs)
