@@ -191,11 +191,25 @@ def with_sensitivity(values: dict, rec: Optional[dict], rel: float = 1e-9) -> di
         if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (value, base)) \
                 or abs(value - base) > rel * abs(base):
             continue
-        params = {k: r for k, r in rec["parameters"].items() if r["elasticity"].get(row) is not None}
-        new[row] = Measured(value, facts, sensitivity=Sensitivity(
-            elasticity={k: r["elasticity"][row] for k, r in params.items()},
-            precision={k: r["precision"] for k, r in params.items()}, source=rec["precision_source"],
-            method=rec["method"],
-            standard_error={k: r["standard_error"][row] for k, r in params.items()
-                            if (r.get("standard_error") or {}).get(row) is not None}))
+        new[row] = Measured(value, facts, sensitivity=sensitivity_of(rec, row))
     return new
+
+
+def sensitivity_of(rec: dict, row: str) -> Sensitivity:
+    """Row ``row``'s :class:`Sensitivity` from a sensitivity record (the format of
+    :func:`with_sensitivity`'s ``rec``); its reach: :func:`bipedlab.report.values.reach_of`."""
+    params = {k: r for k, r in rec["parameters"].items() if r["elasticity"].get(row) is not None}
+    return Sensitivity(
+        elasticity={k: r["elasticity"][row] for k, r in params.items()},
+        precision={k: r["precision"] for k, r in params.items()}, source=rec["precision_source"],
+        method=rec["method"],
+        standard_error={k: r["standard_error"][row] for k, r in params.items()
+                        if (r.get("standard_error") or {}).get(row) is not None})
+
+
+def reach(rec: dict, row: str) -> float:
+    """The largest relative change of ``row``'s value, to first order, with every stated value
+    within its precision (:func:`bipedlab.report.values.reach_of` of :func:`sensitivity_of`)."""
+    from bipedlab.report.values import reach_of
+
+    return reach_of(sensitivity_of(rec, row))

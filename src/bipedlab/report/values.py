@@ -99,12 +99,30 @@ class TemplateError(ValuesError):
     """A why / departs_why text that names a number the run does not hold."""
 
 
-def _number(x) -> bool:
+def is_number(x) -> bool:
+    """A finite real number (not a bool)."""
     return isinstance(x, (int, float)) and not isinstance(x, bool) and math.isfinite(x)
 
 
 #: the two kinds of numeric departure (:func:`closing`)
 WITHIN_UNCERTAINTY, IMPLEMENTATION = "within model uncertainty", "implementation or setup"
+
+
+def _counted(sensitivity) -> tuple[dict, list]:
+    """({parameter: elasticity} counted, [parameters within two standard errors of zero])."""
+    e = {k: float(x) for k, x in sensitivity.elasticity.items() if is_number(x)}
+    se = {k: float(x) for k, x in (sensitivity.standard_error or {}).items() if is_number(x)}
+    noise = sorted(k for k, x in e.items() if se.get(k, 0.0) > 0 and abs(x) <= 2.0 * se[k])
+    return {k: x for k, x in e.items() if k not in noise}, noise
+
+
+def reach_of(sensitivity) -> float:
+    """The largest relative change of a value, to first order, with every parameter whose
+    precision is stated within it: sum of precision |elasticity| over the counted elasticities
+    (:func:`closing`'s ``reach``)."""
+    e, _ = _counted(sensitivity)
+    return float(sum(abs(x) * sensitivity.precision[k] for k, x in e.items()
+                     if sensitivity.precision.get(k) is not None))
 
 
 def closing(value, paper, sensitivity) -> dict | None:
@@ -123,16 +141,13 @@ def closing(value, paper, sensitivity) -> dict | None:
       zero (a noisy statistic's), counted nowhere above.
 
     None when the value or the paper's number is not a nonzero number."""
-    if not (_number(value) and _number(paper)) or value == 0:
+    if not (is_number(value) and is_number(paper)) or value == 0:
         return None
     needed = paper / value - 1.0
-    e = {k: float(x) for k, x in sensitivity.elasticity.items() if _number(x)}
-    se = {k: float(x) for k, x in (sensitivity.standard_error or {}).items() if _number(x)}
-    noise = sorted(k for k, x in e.items() if se.get(k, 0.0) > 0 and abs(x) <= 2.0 * se[k])
-    e = {k: x for k, x in e.items() if k not in noise}
+    e, noise = _counted(sensitivity)
     singles = {k: needed / x for k, x in e.items() if x != 0}
     stated = {k: x for k, x in singles.items() if sensitivity.precision.get(k) is not None}
-    reach = sum(abs(x) * sensitivity.precision[k] for k, x in e.items() if sensitivity.precision.get(k) is not None)
+    reach = reach_of(sensitivity)
 
     def best(d):
         if not d:
@@ -175,7 +190,7 @@ def band(tolerance: dict, paper, sign=None):
         lo, hi = t, math.inf
     elif kind == "at_most":
         lo, hi = -math.inf, t
-    elif kind in ("rel", "abs", "factor") and _number(paper):
+    elif kind in ("rel", "abs", "factor") and is_number(paper):
         if kind == "factor":
             lo, hi = sorted((paper / t, paper * t))
         else:
@@ -197,9 +212,9 @@ def too_wide(row: dict) -> str | None:
     that holds values of both signs where the row states a sign."""
     tol, p = row["tolerance"], row["paper"]
     kind, t = tol["kind"], tol.get("value")
-    if kind in ("rel", "abs", "factor") and _number(p):
-        w = {"rel": (t * abs(p)) if _number(t) else None, "abs": t,
-             "factor": abs(p) * (t - 1) if _number(t) else None}[kind]
+    if kind in ("rel", "abs", "factor") and is_number(p):
+        w = {"rel": (t * abs(p)) if is_number(t) else None, "abs": t,
+             "factor": abs(p) * (t - 1) if is_number(t) else None}[kind]
         if w is None or w > abs(p) * (1 + 1e-12):
             return f"a {kind} tolerance of {t!r} reaches {w!r} from the paper's {p!r}, farther than |paper|"
     if row.get("sign") in SIGNS and kind in ("rel", "abs", "factor", "range", "at_least", "at_most"):
@@ -286,7 +301,7 @@ def render(text: str, namespace: dict, where: str = "text") -> str:
         if x is _MISSING or x is None:
             raise TemplateError(f"{where}: {{{name}}} " + _missing(name, namespace, x is None))
         if scale is not None:
-            if not _number(x):
+            if not is_number(x):
                 raise TemplateError(f"{where}: {{{name}*{scale}}} scales {x!r}, which is not a number")
             x = x * float(scale)
         try:
@@ -305,17 +320,17 @@ def check_tolerance(tol, where: str) -> None:
     v = tol.get("value")
     kind = tol["kind"]
     if kind == "range":
-        ok = isinstance(v, list) and len(v) == 2 and all(_number(a) for a in v) and v[0] <= v[1]
+        ok = isinstance(v, list) and len(v) == 2 and all(is_number(a) for a in v) and v[0] <= v[1]
     elif kind == "equals":
         ok = isinstance(v, (bool, int, float, str))
     elif kind == "report":
         ok = v is None
     elif kind == "factor":
-        ok = _number(v) and 1 < v <= 2
+        ok = is_number(v) and 1 < v <= 2
     elif kind == "rel":
-        ok = _number(v) and 0 <= v <= 1
+        ok = is_number(v) and 0 <= v <= 1
     else:
-        ok = _number(v) and (v >= 0 or kind in ("at_least", "at_most"))
+        ok = is_number(v) and (v >= 0 or kind in ("at_least", "at_most"))
     if not ok:
         raise ValuesError(f"{where}: tolerance.value {v!r} does not fit kind {kind!r}")
     d = tol.get("derivation")
@@ -353,7 +368,7 @@ def check(data: dict, label: str = "paper values") -> dict:
         if row["id"] in seen:
             raise ValuesError(f"{where}: id given twice")
         seen.add(row["id"])
-        if not (_number(row["paper"]) or isinstance(row["paper"], (str, bool))):
+        if not (is_number(row["paper"]) or isinstance(row["paper"], (str, bool))):
             raise ValuesError(f"{where}: 'paper' must be a number, a yes/no or a short text")
         check_tolerance(row["tolerance"], where)
         if "departs_why" in row and not isinstance(row["departs_why"], str):
@@ -363,7 +378,7 @@ def check(data: dict, label: str = "paper values") -> dict:
         if "sign" in row:
             if row["sign"] not in SIGNS:
                 raise ValuesError(f"{where}: 'sign' must be '+' or '-'")
-            if _number(row["paper"]) and row["paper"] * SIGNS[row["sign"]] <= 0:
+            if is_number(row["paper"]) and row["paper"] * SIGNS[row["sign"]] <= 0:
                 raise ValuesError(f"{where}: 'sign' {row['sign']} is not the sign of the paper's {row['paper']!r}")
         if "survival_only" in row and (row["survival_only"] is not True or row["tolerance"].get("derivation") != "claim"):
             raise ValuesError(f"{where}: 'survival_only' is true on a claim row (derivation 'claim') or absent")
@@ -404,7 +419,7 @@ def agrees(value, tolerance: dict, paper=None, sign=None):
         return None
     if kind == "equals":
         return bool(value == t)
-    if isinstance(value, bool) or not _number(value):
+    if isinstance(value, bool) or not is_number(value):
         return None
     if sign in SIGNS and not value * SIGNS[sign] > 0:
         return False
@@ -414,7 +429,7 @@ def agrees(value, tolerance: dict, paper=None, sign=None):
         return bool(value <= t)
     if kind == "range":
         return bool(t[0] <= value <= t[1])
-    if not _number(paper):
+    if not is_number(paper):
         return None
     if kind == "factor":
         if paper == 0 or value * paper <= 0:
@@ -439,9 +454,9 @@ def verdict(ok, self_check=None, derivation=None) -> str:
 
 
 def _g(v) -> str:
-    if _number(v) and 1e-7 <= abs(v) < 1e-4:
+    if is_number(v) and 1e-7 <= abs(v) < 1e-4:
         return f"{v:.7f}".rstrip("0")
-    return f"{v:g}" if _number(v) else str(v)
+    return f"{v:g}" if is_number(v) else str(v)
 
 
 def tolerance_text(tolerance: dict, unit: str = "", sign=None) -> str:

@@ -57,6 +57,23 @@ def test_an_elasticity_within_two_standard_errors_of_zero_is_not_counted():
     assert "Not counted" not in values.closing_text(values.closing(0.9, 1.0, clear))
 
 
+def test_a_records_reach_is_the_closings_and_its_rows_sensitivity_the_records():
+    """spec.reach / sensitivity_of read a sensitivity experiment's record in the format every
+    robot's experiment writes; the reach is closing's, noise excluded, missing elasticities left out."""
+    from bipedlab.report import spec
+
+    rec = dict(base=dict(v=2.0), precision_source="src", method="m", parameters={
+        "a": dict(precision=0.01, elasticity=dict(v=3.0), standard_error=dict(v=0.5)),
+        "b": dict(precision=0.1, elasticity=dict(v=0.4), standard_error=dict(v=0.3)),  # within 2 s.e.: not counted
+        "c": dict(precision=None, elasticity=dict(v=5.0)), "d": dict(precision=0.2, elasticity=dict(v=None))})
+    s = spec.sensitivity_of(rec, "v")
+    assert s.elasticity == dict(a=3.0, b=0.4, c=5.0) and s.precision == dict(a=0.01, b=0.1, c=None)
+    assert s.standard_error == dict(a=0.5, b=0.3) and (s.source, s.method) == ("src", "m")
+    assert spec.reach(rec, "v") == pytest.approx(0.03) == values.closing(2.0, 1.0, s)["reach"]
+    out = spec.with_sensitivity(dict(v=Measured(2.0 + 1e-12, dict(k=1))), rec)
+    assert out["v"].sensitivity == s and out["v"].facts == dict(k=1)
+
+
 def test_a_departing_row_carries_its_closing_and_the_counts_sort_the_departures(tmp_path):
     rows = [dict(id=i, quantity=i, paper=1.0, unit="m/s", source="Table II",
                  tolerance=dict(kind="rel", value=0.02, derivation="precision", why="printed to two digits"),

@@ -241,7 +241,7 @@ def test_elasticities_reach_and_summary_of_a_sensitivity_record():
     rec = dict(base=base, parameters={
         "thigh.mass": dict(precision=0.005, elasticity=e),
         "boom arm mass": dict(precision=None, elasticity=dict(e, speed_mps=9.0))},
-        fell=[], method="m", walks=3, wall_time_s=1.0)
+        fell=[], method="m", precision_source="Table I", walks=3, wall_time_s=1.0)
     assert sv.reach(rec, "speed_mps") == pytest.approx(0.005 * 1.25)
     text = sv.summary(rec)
     assert "thigh.mass" in text and "assumed" in text and "speed_mps 0.63%" in text

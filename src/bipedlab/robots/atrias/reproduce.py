@@ -19,7 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Sensitivity, Skip, dig
+from bipedlab.report import Experiment, Failed, Figure, Measured, Paper, Skip, dig
+from bipedlab.report.spec import with_sensitivity
 
 DATA = Path(__file__).parent / "data" / "paper_running.json"
 TRIALS, QUICK_TRIALS = 32, 4
@@ -262,24 +263,13 @@ def measure(records: dict, quick: bool) -> dict:
 def _with_sensitivity(out: dict, rec) -> dict:
     """The rows the sensitivity experiment measured, each with its
     :class:`~bipedlab.report.spec.Sensitivity` (only where the experiment's unscaled value is the
-    row's own: the same run)."""
+    row's own: the same run); the values named in the row's text by what they are ("trunk mass
+    (59 kg)" -> "trunk mass")."""
     if not rec:
         return {}
-    new = {}
-    for row, base in rec["base"].items():
-        v = out.get(row)
-        value, facts = (v.value, v.facts) if isinstance(v, Measured) else (v, {})
-        if not isinstance(value, (int, float)) or isinstance(value, bool) or abs(value - base) > 1e-9 * abs(base):
-            continue
-        # named in the row's text by what they are: "trunk mass (59 kg)" -> "trunk mass"
-        params = {r["what"].split(" (")[0]: r for r in rec["parameters"].values() if r["elasticity"].get(row) is not None}
-        new[row] = Measured(value, facts, sensitivity=Sensitivity(
-            elasticity={k: r["elasticity"][row] for k, r in params.items()},
-            precision={k: r["precision"] for k, r in params.items()}, source=rec["precision_source"],
-            method="experiment sensitivity: " + rec["method"],
-            standard_error={k: r["standard_error"][row] for k, r in params.items()
-                            if r["standard_error"].get(row) is not None}))
-    return new
+    view = dict(rec, method="experiment sensitivity: " + rec["method"],
+                parameters={r["what"].split(" (")[0]: r for r in rec["parameters"].values()})
+    return with_sensitivity(out, view, rel=1e-9)
 
 
 def _with_draws(value, per_trial):

@@ -25,6 +25,8 @@ import time
 
 import numpy as np
 
+from bipedlab.report.spec import reach
+from bipedlab.report.values import is_number
 from bipedlab.robots.atrias import catalog
 
 #: the experiments (of :mod:`bipedlab.robots.atrias.reproduce`) whose rows the sensitivity covers
@@ -50,10 +52,6 @@ def _settings(name: str, trials=None, distance=None):
 RECORD_KEYS = {"sd": "apex_height_sd_m", "height": "apex_height_error_mean_m", "speed": "speed_error_mean_mps"}
 
 
-def _number(v) -> bool:
-    return isinstance(v, (int, float)) and not isinstance(v, bool) and bool(np.isfinite(v))
-
-
 def _values(records: dict, settings: dict) -> dict:
     """The rows' numbers: of a single run (deterministic) every row reproduce's measure gives
     from it, rates left out; of a batched run the pooled statistics of :func:`row_statistics`
@@ -66,14 +64,14 @@ def _values(records: dict, settings: dict) -> dict:
         if settings[exp].trials is None:
             for k, v in reproduce.measure({exp: rec}, quick=False).items():
                 v = v.value if isinstance(v, Measured) else v
-                if _number(v) and not k.endswith("_success"):
+                if is_number(v) and not k.endswith("_success"):
                     out[k] = float(v)
     for row, (exp, path, stat) in row_statistics().items():
         rec = records.get(exp)
         for k in path:
             rec = (rec or {}).get(k)
         v = (rec or {}).get(RECORD_KEYS[stat])
-        if exp in records and settings[exp].trials is not None and _number(v):
+        if exp in records and settings[exp].trials is not None and is_number(v):
             out[row] = float(v)
     return out
 
@@ -179,17 +177,6 @@ def sensitivity(step: float = STEP, trials=None, distance=None, parameters=None,
                         "the runs repeated on the rows' own terrain draws, jackknife standard errors over the draws"),
                 precision_source=PRECISION_SOURCE, base=base, parameters=rows, runs=len(experiments) * (1 + len(names)),
                 wall_time_s=time.perf_counter() - t0)
-
-
-def reach(rec: dict, row: str) -> float:
-    """The largest relative change of ``row``'s value, to first order, with every stated value
-    within its precision, counting the elasticities further than two standard errors from zero."""
-    total = 0.0
-    for r in rec["parameters"].values():
-        e, se = r["elasticity"].get(row), r["standard_error"].get(row)
-        if r["precision"] is not None and e is not None and abs(e) > 2 * (se or 0.0):
-            total += abs(e) * r["precision"]
-    return total
 
 
 def summary(rec: dict) -> str:

@@ -48,6 +48,7 @@ import jax.numpy as jnp
 import numpy as np
 
 from bipedlab.mechanics import Body, Point, build_model
+from bipedlab.report import spec
 from bipedlab.mechanics import coupled as cp
 from bipedlab.mechanics import kinematics as kin
 from bipedlab.pytree import pytree
@@ -76,9 +77,7 @@ ACTUATORS = {j: {k: float(v) for k, v in TABLE_I[j].items()} for j in ("hip", "k
 def printed_precision(part: str, key: str) -> float:
     """The relative precision of a Table I value as printed: half a unit of its last digit over
     the value (6.12 kg: 0.005 / 6.12)."""
-    text = TABLE_I[part][key]
-    decimals = len(text.split(".")[1]) if "." in text else 0
-    return 0.5 * 10.0 ** -decimals / abs(float(text))
+    return spec.printed_precision(TABLE_I[part][key])
 JOINTS = ("hip", "knee", "ankle")
 #: Rotor-plus-gearhead inertia on the motor side (kg m^2), the mean of J_a / n^2 over Table I.
 MOTOR_INERTIA = float(np.mean([ACTUATORS[j]["J"] / ACTUATORS[j]["n"] ** 2 for j in JOINTS]))

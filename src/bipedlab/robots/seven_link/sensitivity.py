@@ -25,6 +25,7 @@ import time
 
 import jax
 
+from bipedlab.report.spec import reach
 from bipedlab.robots.seven_link import robot as sl
 from bipedlab.robots.seven_link import setup as su
 from bipedlab.robots.seven_link import study
@@ -95,13 +96,6 @@ def sensitivity(steps: int = 30, params: str = "paper", step: float = 0.01, prog
         f"forward differences of whole {steps}-step walks, each parameter x (1 + {step:g}) in the plant alone"),
                 precision_source=PRECISION_SOURCE, quantities=list(QUANTITIES), base=base, parameters=rows,
                 fell=fell, walks=1 + len(rows), wall_time_s=time.perf_counter() - t0)
-
-
-def reach(rec: dict, quantity: str) -> float:
-    """The largest relative change of ``quantity``, to first order, with every Table I value
-    within its printed precision: sum of precision |elasticity|."""
-    return float(sum(abs(r["elasticity"][quantity]) * r["precision"] for r in rec["parameters"].values()
-                     if r["precision"] is not None and r["elasticity"][quantity] is not None))
 
 
 def summary(rec: dict) -> str:

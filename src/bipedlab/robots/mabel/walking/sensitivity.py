@@ -22,7 +22,7 @@ import time
 
 import numpy as np
 
-from bipedlab.report.spec import printed_precision
+from bipedlab.report.spec import printed_precision, reach
 from bipedlab.robots.mabel import model as mm
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking import stance as wk
@@ -125,13 +125,6 @@ def sensitivity(step: float = 0.01, parameters=None, progress=None, redesign_fn=
         precision_source=PRECISION_SOURCE, base=base, parameters=rows,
         failed=[k for k, r in rows.items() if not r["converged"]], designs=2 * (1 + len(rows)),
         wall_time_s=time.perf_counter() - t0)
-
-
-def reach(rec: dict, row: str) -> float:
-    """The largest relative change of ``row``, to first order, with every printed value within
-    its printed precision: sum of precision |elasticity|."""
-    return float(sum(abs(r["elasticity"][row]) * r["precision"] for r in rec["parameters"].values()
-                     if r["precision"] is not None and r["elasticity"].get(row) is not None))
 
 
 def summary(rec: dict) -> str:
