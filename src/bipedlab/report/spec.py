@@ -11,6 +11,8 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 from typing import Any, Callable, Optional
 
+from bipedlab.report.values import is_number, reach_of
+
 
 @dataclass(frozen=True)
 class Experiment:
@@ -188,8 +190,7 @@ def with_sensitivity(values: dict, rec: Optional[dict], rel: float = 1e-9) -> di
     for row, base in rec["base"].items():
         v = values.get(row)
         value, facts = (v.value, v.facts) if isinstance(v, Measured) else (v, {})
-        if not all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in (value, base)) \
-                or abs(value - base) > rel * abs(base):
+        if not (is_number(value) and is_number(base)) or abs(value - base) > rel * abs(base):
             continue
         new[row] = Measured(value, facts, sensitivity=sensitivity_of(rec, row))
     return new
@@ -210,6 +211,4 @@ def sensitivity_of(rec: dict, row: str) -> Sensitivity:
 def reach(rec: dict, row: str) -> float:
     """The largest relative change of ``row``'s value, to first order, with every stated value
     within its precision (:func:`bipedlab.report.values.reach_of` of :func:`sensitivity_of`)."""
-    from bipedlab.report.values import reach_of
-
     return reach_of(sensitivity_of(rec, row))

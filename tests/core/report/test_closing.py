@@ -72,6 +72,9 @@ def test_a_records_reach_is_the_closings_and_its_rows_sensitivity_the_records():
     assert spec.reach(rec, "v") == pytest.approx(0.03) == values.closing(2.0, 1.0, s)["reach"]
     out = spec.with_sensitivity(dict(v=Measured(2.0 + 1e-12, dict(k=1))), rec)
     assert out["v"].sensitivity == s and out["v"].facts == dict(k=1)
+    # a base or a value that is not a finite number is no run's own: nothing attached
+    assert spec.with_sensitivity(dict(v=float("nan")), rec) == {}
+    assert spec.with_sensitivity(dict(v=2.0), dict(rec, base=dict(v=float("nan")))) == {}
 
 
 def test_a_departing_row_carries_its_closing_and_the_counts_sort_the_departures(tmp_path):
