@@ -176,21 +176,24 @@ def printed_precision(text: str) -> float:
     return float(Decimal("0.5").scaleb(d.as_tuple().exponent) / abs(d))
 
 
-def with_sensitivity(values: dict, rec: Optional[dict], rel: float = 1e-9) -> dict:
+def with_sensitivity(values: dict, rec: Optional[dict], rel: float = 1e-9, noise: float = 3.0) -> dict:
     """The rows of ``values`` ({row id: value or :class:`Measured`}) that a sensitivity record
     measured, each as a :class:`Measured` carrying its :class:`Sensitivity`, where the record's
     unscaled value (``rec["base"][row]``) is the row's own within ``rel`` (the same run, or the
     same optimum found again). ``rec``: ``base`` {row: value}; ``parameters`` {name: {precision,
     elasticity {row: value or None}, standard_error {row: value} (optional)}}; ``precision_source``;
-    ``method``. A parameter whose elasticity of a row is None (its scaled run failed) is left out
-    of that row's."""
+    ``method``; optionally ``noise`` {row: s.d. of the row's value between runs that differ only
+    by rounding}, within ``noise`` of which times it the base is the row's own too. A parameter
+    whose elasticity of a row is None (its scaled run failed) is left out of that row's."""
     if not rec:
         return {}
     new = {}
     for row, base in rec["base"].items():
         v = values.get(row)
         value, facts = (v.value, v.facts) if isinstance(v, Measured) else (v, {})
-        if not (is_number(value) and is_number(base)) or abs(value - base) > rel * abs(base):
+        if not (is_number(value) and is_number(base)):
+            continue
+        if abs(value - base) > max(rel * abs(base), noise * ((rec.get("noise") or {}).get(row) or 0.0)):
             continue
         new[row] = Measured(value, facts, sensitivity=sensitivity_of(rec, row))
     return new

@@ -10,7 +10,7 @@ import jax.numpy as jnp
 import numpy as np
 import pytest
 
-from helpers import expect_usage_error
+from helpers import expect_usage_error, new_programs
 
 from bipedlab.mechanics import coupled as cp
 from bipedlab.report.spec import Measured, Skip, printed_precision, with_sensitivity
@@ -116,12 +116,14 @@ def test_printed_forms_are_the_tables_values_and_give_their_precision():
             printed_precision(bad)
 
 
-def _stand_in(scale):
+def _stand_in(scale, start=None):
     """Rows with known elasticities: a = p_torso_mass^2 (2), b = 1 / p_boom_mass (-1), c = 3
-    (0); the spring damping's 're-design' fails."""
+    (0); the spring damping's 're-design' fails. The unscaled run (no start) gives its optimum
+    as the start of every scaled one."""
     f = dict(scale)
+    assert (start is None) == (not f) and (start is None or start == dict(nominal=1.0))
     rows = dict(a=f.get("torso mass", 1.0) ** 2, b=1.0 / f.get("boom mass", 1.0), c=3.0, d=None)
-    return rows, "spring damping" not in f
+    return rows, "spring damping" not in f, dict(nominal=1.0)
 
 
 def test_forward_differences_give_the_known_elasticities():
@@ -167,3 +169,48 @@ def test_a_real_redesign_moves_with_the_spring_damping_only_through_the_closed_l
         assert abs(e[row]) < 1e-6, row
     assert abs(e["nominal_eig_pdff"]) > 1e-3 and abs(e["efficient_eig_pdff"]) > 1e-3
     assert rec["base"]["nominal_step_length_m"] == pytest.approx(0.45679, abs=2e-5)  # the shipped gait's optimum
+
+
+def _plant_stand_in(scale):
+    """Rows of a 'plant': a = 2 p^2 in the torso mass (elasticity 2.1 at +10 %); b = 5 plus a
+    rounding jitter of 0.01 / 0.02 for the two replicas (noise s.d. 0.01), no physical dependence."""
+    f = dict(scale)
+    jitter = 1e10 * (f.get("torso mass", 1.0) - 1.0) + 2e10 * (f.get("boom inertia", 1.0) - 1.0)
+    return dict(a=2.0 * f.get("torso mass", 1.0) ** 2, b=5.0 + (jitter if abs(jitter) < 1 else 0.0))
+
+
+def test_the_plant_tier_measures_the_rows_noise_from_rounding_replicas():
+    rec = ws.plant_sensitivity(step=0.1, parameters=["torso mass", "spring stiffness"], rows_fn=_plant_stand_in)
+    assert rec["noise"]["b"] == pytest.approx(0.01, rel=1e-3)  # 1 + 1e-12 is not exact in binary
+    e, se = rec["parameters"]["torso mass"]["elasticity"], rec["parameters"]["torso mass"]["standard_error"]
+    assert e["a"] == pytest.approx(2.1) and e["b"] == 0.0
+    assert se["b"] == pytest.approx(np.sqrt(2) * rec["noise"]["b"] / (0.1 * 5.0), rel=1e-9)
+    # a row computed apart (constant model) is attached within three noise s.d.s of the base, not beyond
+    near, far = dict(b=5.0 + 2.5 * rec["noise"]["b"]), dict(b=5.0 + 3.5 * rec["noise"]["b"])
+    assert set(with_sensitivity(near, rec)) == {"b"} and with_sensitivity(far, rec) == {}
+    # the elasticity of b is zero within its noise: the report's closing counts it nowhere
+    from bipedlab.report import values
+
+    s = with_sensitivity(near, rec)["b"].sensitivity
+    assert values.closing(5.0, 7.0, s)["within_noise"] == ["spring stiffness", "torso mass"]
+    # the summary prints the plant tier beside the design tier, each elasticity with its standard error
+    design = ws.sensitivity(step=0.01, parameters=["torso mass"], redesign_fn=_stand_in)
+    text = ws.summary(dict(design, plant=rec))
+    assert "to the plant" in text and f"a +2.1 +- {se['a']:.2g}" in text
+
+
+def test_a_plant_built_with_other_values_is_data_of_one_walking_program():
+    from bipedlab.robots.mabel.walking import study as wm
+
+    const = wm.walk("paper-575", "pdff", 3)
+    base = wm.walk("paper-575", "pdff", 3, plant_scale=())
+    heavy, programs = new_programs(wm.walk, "paper-575", "pdff", 3, plant_scale=(("torso mass", 1.1),))
+    assert programs == 0  # the scaled plant runs on the program of the unscaled one
+    # the published values as data give the constant model's walk up to rounding (measured 1e-8)
+    assert base["speed_mps"] == pytest.approx(const["speed_mps"], rel=1e-6)
+    assert base["cmt"] == pytest.approx(const["cmt"], rel=1e-6)
+    # a heavier torso in the plant alone changes the walk, and its c_mt is over the heavier robot's mass
+    mass = wm.plant_mass((("torso mass", 1.1),))
+    assert mass == pytest.approx(wm.robot_mass() + 0.1 * tb.LINKS["torso"][0], rel=1e-12)
+    assert abs(heavy["speed_mps"] / const["speed_mps"] - 1.0) > 1e-3
+    assert heavy["plant_scale"] == [["torso mass", 1.1]] and "plant_scale" not in const

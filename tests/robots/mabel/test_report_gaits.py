@@ -32,6 +32,8 @@ def test_the_experiments_gaits_are_the_walking_experiments_own():
         assert g[name] == (wx.GAIT,) + wx.FACTOR_GAITS, name
     assert g["fast"] == (wx.GAIT, "fast")
     assert g["pd-gains"] == tuple(wx.PD_GAITS)
+    # the design tier re-designs the paper-model gaits; the plant tier walks the experiments' own
+    assert g["sensitivity"] == tuple(wx.PD_GAITS) + (wx.GAIT, wx.EXP3_GAIT)
     assert set(g["full-plant"]) == set(wx.GAP_GAITS) | set(wx.HEADLINE_GAITS)
     assert set(g) == {e.name for e in R.HZD_EXPERIMENTS}
     assert all(name in wm.GAITS for gs in g.values() for name in gs)

@@ -169,8 +169,8 @@ def bracket_force(change_of, target, f0, tol=SEARCH_TOL, max_walks=SEARCH_WALKS,
     return best[0], best[1], walks, False
 
 
-def nominal(steps, progress, out):
-    r = _walk(GAIT, "pdff", steps or 100, progress, out=out)
+def nominal(steps, progress, out, plant_scale=None):
+    r = _walk(GAIT, "pdff", steps or 100, progress, out=out, plant_scale=plant_scale)
     r["paper"] = dict(designed_speed_mps=0.8, experimental_speed_mps=1.0, steps=78)
     return r
 
@@ -340,8 +340,8 @@ def push_full_plant(steps, push_step=PUSH_STEP, reference_from=5, progress=None)
 EXP3_GAIT, EXP3_NOMINAL = "paper-efficient-clear", "paper-nominal"
 
 
-def efficient(steps, progress, out):
-    r = _walk(EXP3_GAIT, "pdff", steps or 100, progress, out=out)
+def efficient(steps, progress, out, plant_scale=None):
+    r = _walk(EXP3_GAIT, "pdff", steps or 100, progress, out=out, plant_scale=plant_scale)
     _, _, rec = wm.load_gait(EXP3_GAIT)
     _, _, nom = wm.load_gait(EXP3_NOMINAL)
     r.update(experiment="efficient", designed_cmt=rec["design"]["cmt"], nominal_designed_cmt=nom["design"]["cmt"],
@@ -361,7 +361,7 @@ def _tracking_row(r) -> dict:
                 tracking_peak_deg=r["tracking_peak_deg"], peak_torques_nm=r["peak_torques_nm"], cmt=r["cmt"])
 
 
-def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized"), causes=True):
+def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized"), causes=True, plant_scale=None):
     """Exps. 1, 4-5 tracking: the nominal gait (:data:`GAIT`) under each controller on the stance model with
     14-bit encoders at 1 kHz (the rows). ``causes``: the same walks with exact encoders
     (``ideal_sensing``: no quantisation, exact rates) and on the 13-DoF plant (``full_plant``:
@@ -370,7 +370,7 @@ def tracking(steps, progress, out, controllers=("pdff", "iolin", "decentralized"
     rows = {}
     n = steps or 30
     for c in controllers:
-        r = _walk(GAIT, c, n, progress, out=(f"{out}/{c}" if out else None))
+        r = _walk(GAIT, c, n, progress, out=(f"{out}/{c}" if out else None), plant_scale=plant_scale)
         rows[c] = _tracking_row(r)
         if causes:
             rows[c]["ideal_sensing"] = _tracking_row(_walk(GAIT, c, n, progress, sensing="ideal"))
@@ -401,7 +401,7 @@ def paper_speed_sensitivity() -> float:
 
 
 def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS, pdff_column=True,
-                   gait_factor=FACTOR_GAITS):
+                   gait_factor=FACTOR_GAITS, plant_scale=None):
     """Table I is a simulation of the nominal fixed point (:data:`GAIT`): here under the compliant-HZD
     controller with exact sensing (the model's own closed loop), and beside it (``pdff_column``)
     PD + feedforward with encoders (the experiment's controller). The steady speed is the mean
@@ -416,7 +416,7 @@ def impact_scaling(steps, progress, out, etas=ETAS, average=catalog.STEADY_STEPS
     for eta in etas:
         row = dict(eta=eta, paper_speed_mps=wm.PAPER["impact_scaling"][eta])
         for key, c, sensing in columns:
-            r = _walk(GAIT, c, steps, progress, eta=eta, sensing=sensing)
+            r = _walk(GAIT, c, steps, progress, eta=eta, sensing=sensing, plant_scale=plant_scale)
             row.update({f"{key}fell": r["fell"], f"{key}steps_completed": r["steps_completed"],
                         f"{key}steady_speed_mps": _steady_speed(r, average)})
         rows.append(row)
@@ -543,14 +543,15 @@ EXP4_PAPER = dict(speed_mps=0.9, cmt=0.18, torso_rms_deg=0.89, torso_peak_deg=2.
                   mLS_st_peak_deg=39.5)
 
 
-def limited_walk(gait, controller, steps, limits, sensing="encoders", progress=None) -> dict:
+def limited_walk(gait, controller, steps, limits, sensing="encoders", progress=None, plant_scale=None) -> dict:
     """A walk of ``gait`` under ``controller`` with the gait's gains saturated at ``limits``
     (N m, actuator order; :func:`~bipedlab.robots.mabel.walking.study.run_walk`, the limits
     data of the compiled loop); :func:`~bipedlab.robots.mabel.walking.study.metrics` plus the
     fraction of samples in saturation per motor and the peak torques, both over the samples up
     to the last touchdown (or the fall)."""
-    s, log, rec = wm.run_walk(gait, controller, steps, sensing=sensing, progress=progress, torque_limits=limits)
-    r = wm.metrics(s, log, limits)
+    s, log, rec = wm.run_walk(gait, controller, steps, sensing=sensing, progress=progress, torque_limits=limits,
+                              plant_scale=plant_scale)
+    r = wm.metrics(s, log, limits, mass=wm.plant_mass(plant_scale))
     n = sw.record_samples(s, log)
     u = np.asarray(log["u"][:n])
     lim = np.asarray(limits, float)
@@ -567,14 +568,14 @@ def _exp4_row(r) -> dict:
     return dict({k: r[k] for k in keys}, fell_in_step=r["steps_completed"] + 1 if r["fell"] else None)
 
 
-def exp4(steps, progress, out, compare=True):
+def exp4(steps, progress, out, compare=True, plant_scale=None):
     """Exp. 4: the nominal (Exp. 1) gait :data:`GAIT` under the compliant-HZD controller (I/O linearisation
     with the hybrid-invariance corrections, ``iolin``), 14-bit encoders at 1 kHz, with the
     experiment's saturation EXP4_LIMITS; ``steps`` (default 30). A fallen run has no speed
     (``speed_mps`` None) and gives the step and time of the fall. ``without_limits``: the same
     run at the drivetrain's limits (30 / 55 N m); ``compare`` False leaves it out."""
     n = steps or 30
-    r = _exp4_row(limited_walk(GAIT, "iolin", n, EXP4_LIMITS, progress=progress))
+    r = _exp4_row(limited_walk(GAIT, "iolin", n, EXP4_LIMITS, progress=progress, plant_scale=plant_scale))
     rec = dict(experiment="exp4", gait=GAIT, controller="iolin", sensing="encoders", steps=n, **r,
                paper=dict(EXP4_PAPER, torque_limits_nm=list(EXP4_LIMITS)))
     if compare:
@@ -604,7 +605,7 @@ def _contact(r):
     return {k: r[k] for k in ("friction_cone_exceeded", "max_friction_ratio", "toe_pulled", "min_normal_force_n")}
 
 
-def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
+def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True, plant_scale=None):
     """Exp. 5 as the experimenters did it: the nominal (Exp. 1) constraints (:data:`GAIT`), the torso leaned
     forward step by step (:func:`~bipedlab.robots.mabel.walking.constraints.lean`, FAST_LEAN_STEPS increments)
     under the decentralised zero-dynamics controller (:data:`FAST_CONTROLLER`, Sec. V-E), then
@@ -618,7 +619,7 @@ def fast(steps, progress, out, lean_steps=FAST_LEAN_STEPS, comparisons=True):
     n = steps or 100
     total = lean_steps + n
     lean = dict(lean_deg=FAST_LEAN_DEG, lean_steps=lean_steps)
-    r = _walk(GAIT, FAST_CONTROLLER, total, progress, out=out, sensing=FAST_SENSING, **lean)
+    r = _walk(GAIT, FAST_CONTROLLER, total, progress, out=out, sensing=FAST_SENSING, plant_scale=plant_scale, **lean)
     r.update(_after_ramp(r, lean_steps))
     first = r["speed_per_step"][:FAST_START_STEPS]
     r["start_speed_mps"] = float(np.mean(first)) if len(first) == FAST_START_STEPS else None
@@ -850,14 +851,20 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
     return r
 
 
-def sensitivity(steps, progress, out, parameters=None, step: float = 0.01):
+def sensitivity(steps, progress, out, parameters=None, step: float = 0.01, plant=True):
     """The designed gaits' rows as functions of MABEL's published values
-    (:func:`bipedlab.robots.mabel.walking.sensitivity.sensitivity`)."""
+    (:func:`bipedlab.robots.mabel.walking.sensitivity.sensitivity`) and, with ``plant``, the
+    walking experiments' rows as functions of the plant's
+    (:func:`~bipedlab.robots.mabel.walking.sensitivity.plant_sensitivity`, record key ``plant``)."""
     from bipedlab.robots.mabel.walking import sensitivity as ws
 
     if steps is not None:
         raise ValueError(f"sensitivity: --steps does not apply ({catalog.NO_STEPS['sensitivity']})")
-    return ws.sensitivity(step=step, parameters=parameters, progress=progress)
+    rec = ws.sensitivity(step=step, parameters=parameters, progress=progress)
+    if plant:
+        rec["plant"] = ws.plant_sensitivity(parameters=ws.PLANT_PARAMETERS if parameters is None else parameters,
+                                            progress=progress)
+    return rec
 
 
 _RUN = {"nominal": nominal, "push": push, "efficient": efficient, "tracking": tracking,

@@ -73,10 +73,11 @@ MOTOR_INDEX = np.array(mm.MOTOR_INDEX)
 _TO_ACTUATORS = np.array([[0, 1, 2, 3], [2, 3, 0, 1]])
 
 
-@functools.lru_cache(maxsize=1)
-def plant_model() -> mm.Mabel:
-    """The 13-DoF model with ideal amplifiers (K_T = 1, no bias), one object per process."""
-    m = mm.hopping_model()
+@functools.lru_cache(maxsize=32)
+def plant_model(scale: tuple = ()) -> mm.Mabel:
+    """The 13-DoF model with ideal amplifiers (K_T = 1, no bias), one object per process and
+    ``scale`` (pairs (name, factor) of :data:`bipedlab.robots.mabel.model.SCALABLE`)."""
+    m = mm.hopping_model(scale=scale)
     d = m.drive
     return m.replace(drive=d.replace(kt=jnp.ones_like(d.kt), bias=jnp.zeros_like(d.bias)))
 
@@ -112,7 +113,9 @@ def actuator_torques(u, stance):
 def scaled_plant(m: mm.Mabel, setup: sw.Setup) -> mm.Mabel:
     """The plant ``m`` with its ground's stiffness and damping scaled by ``setup.ground``, its
     cables' by ``setup.cable`` and its motors' viscous friction by ``setup.friction`` (data of the
-    compiled loop: one program for every scale)."""
+    compiled loop: one program for every scale); ``setup.plant``, where given, is the 13-DoF
+    model scaled instead of ``m`` (:func:`plant_model` with other values)."""
+    m = sw.plant_of(m, setup)
     g, k, c, d = m.ground, setup.ground, setup.cable, m.drive
     return m.replace(ground=g.replace(stiffness=k * g.stiffness, damping_in=k * g.damping_in,
                                       damping_out=k * g.damping_out),

@@ -37,6 +37,8 @@ ground reaction (:func:`contact_record`) and left to the reader of the record.
 """
 from __future__ import annotations
 
+from typing import Any
+
 import jax
 import jax.numpy as jnp
 import numpy as np
@@ -84,7 +86,10 @@ class Setup:
     1.0: ``tables.GROUND``, the hopping-identified ground; the stance plant pins its toe and
     ignores it); ``cable`` likewise scales the 13-DoF plant's cable stiffness and damping (1.0:
     the identified cables; the stance plant's cables are rigid) and ``friction`` its motors'
-    viscous friction (1.0: Table V's; the stance plant keeps Table V's)."""
+    viscous friction (1.0: Table V's; the stance plant keeps Table V's). ``plant``: the model
+    the plant runs on where it differs from the one the controller knows (None: the same; a
+    model built with other values, :data:`bipedlab.robots.mabel.model.SCALABLE`): data of the
+    compiled loop, so every such plant shares one program."""
 
     vc: vcm.Constraints
     gains: ctl.Gains
@@ -100,6 +105,7 @@ class Setup:
     ground: jax.Array = 1.0
     cable: jax.Array = 1.0
     friction: jax.Array = 1.0
+    plant: Any = None
 
 
 @pytree
@@ -260,9 +266,15 @@ def exogenous(setup: Setup, x: Plant, t) -> Held:
     return Held(force=hip_force(setup, x), step0=x.step)
 
 
+def plant_of(m, setup: Setup):
+    """The model the plant runs on: ``setup.plant`` where given, else m (the controller's)."""
+    return m if setup.plant is None else setup.plant
+
+
 def plant_step(m, setup: Setup, x: Plant, u, d: Held, h, t) -> Plant:
     """One substep (:func:`_substep`); the push stops once the sample has seen a touchdown, and
     only one touchdown counts per sample."""
+    m = plant_of(m, setup)
     touched = x.step != d.step0
     p = motor_power(u, x.z[6:])
     zn, hit, frac, length = _substep(m, setup, x.z, u, jnp.where(touched, 0.0, 1.0) * d.force, x.t_step, h)
@@ -276,6 +288,7 @@ def fell(m, setup: Setup, x0: Plant, r: Reading, u, x: Plant):
     """The robot leaves the walking range: hip too low, torso pitched beyond MAX_TORSO_PITCH,
     theta_s running backwards, or a step too long. The toe's ground reaction is not tested
     (the stance model pins the toe; see the module docstring and :func:`contact_record`)."""
+    m = plant_of(m, setup)
     hip = cp.point_position(m.body, wk.embed(m, x.z)[0], "hip")
     return ((hip[1] < MIN_HIP_HEIGHT) | (jnp.abs(x.z[5]) > MAX_TORSO_PITCH)
             | (vcm.theta_rate(x.z[6:]) < 0.0) | (x.t_step > MAX_STEP_TIME))
@@ -343,6 +356,7 @@ def log(m, setup: Setup, x0: Plant, r: Reading, u, x: Plant, c: Ctrl) -> dict:
     """One row per sample: state at its start, torque, outputs, sub-phase, theta, ground
     reaction, step count, touchdown flag, hip position, push force, distance, positive work,
     and the error of the controller's rate estimate (estimate minus exact)."""
+    m = plant_of(m, setup)
     f = hip_force(setup, x0)
     y, yd = vcm.outputs(c.vc, c.phase, x0.z[:6], x0.z[6:])
     grf = wk.ground_reaction(m, x0.z, u, f)

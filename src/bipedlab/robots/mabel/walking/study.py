@@ -303,7 +303,7 @@ def setup_for(vc, gains, period, eta=1.0, push=(0.0, -1), sensing="encoders", le
 
 def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float = 1.0, sensing: str = "encoders",
              progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance", torque_limits=None,
-             loaded=None, ground: float = 1.0, cable: float = 1.0, friction: float = 1.0):
+             loaded=None, ground: float = 1.0, cable: float = 1.0, friction: float = 1.0, plant_scale=None):
     """Simulate; returns (final loop state, logs, gait record). ``push``: (force N, step index),
     step -1 for none. On the ``full`` plant there is no impact map to scale (the ground's
     compliance makes the impact). ``torque_limits`` (N m, actuator order): the controller's
@@ -312,7 +312,11 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
     loaded it already (it is then not read again). ``ground``: the 13-DoF plant's ground stiffness
     and damping over the identified ground's (``tables.GROUND``); ``cable``: its cables' stiffness
     and damping over the identified cables' (``tables.CABLE_K``, ``tables.CABLE_D``); ``friction``:
-    its motors' viscous friction over Table V's."""
+    its motors' viscous friction over Table V's. ``plant_scale``: None, the plant is the
+    controller's model (a constant of the compiled loop); else pairs (name, factor) of published
+    values (:data:`bipedlab.robots.mabel.model.SCALABLE`; () for none) the plant is built with,
+    data of the loop (one program for every such plant), the controller knowing the published
+    ones: a robot whose values differ from its model's."""
     if plant not in PLANTS:
         raise ValueError(f"plant must be one of {', '.join(PLANTS)}, got {plant!r}")
     if plant == "full" and eta != 1.0:
@@ -343,16 +347,21 @@ def run_walk(gait: str, controller: str, steps: int, push=(0.0, -1), eta: float 
     if plant == "full":
         from bipedlab.robots.mabel.walking import full_plant as fp
 
+        if plant_scale is not None:
+            setup = setup.replace(plant=fp.plant_model(tuple(plant_scale)))
         s, log = fp.simulate(controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
     else:
+        if plant_scale is not None:
+            setup = setup.replace(plant=wk.walking_model(scale=tuple(plant_scale)))
         s, log = sw.simulate(m, controller, setup, jnp.asarray(rec["z_plus"]), steps, progress=cb)
     return s, log, rec
 
 
-def metrics(s, log, limit) -> dict:
+def metrics(s, log, limit, mass=None) -> dict:
     """A walk's figures from its final loop state and logs; ``limit``: the torque limits the
     controller saturated at (N m, actuator order), for the saturation figures
-    (:func:`~bipedlab.robots.mabel.walking.loop.drive_record`)."""
+    (:func:`~bipedlab.robots.mabel.walking.loop.drive_record`); ``mass``: the robot's mass for
+    c_mt (kg; default the published links', :func:`robot_mass`)."""
     touched = np.nonzero(log["touched"])[0]
     n = int(s.x.step)
     t_imp = (touched + 1) * sw.SAMPLE
@@ -361,7 +370,7 @@ def metrics(s, log, limit) -> dict:
     dist, t = float(s.x.distance), float(t_imp[-1]) if n else float(s.t)
     speed_steps = (lengths / durations).tolist()
     y = log["y"][: touched[-1] + 1] if n else log["y"]
-    mass = robot_mass()
+    mass = robot_mass() if mass is None else float(mass)
     work = float(log["work"][touched[-1]]) if n else 0.0
     cmt = work / (mass * 9.81 * dist) if dist > 0 else None
     fell = sw.fell_flag(s)
@@ -377,9 +386,15 @@ def metrics(s, log, limit) -> dict:
                 **sw.contact_record(log, end), **sw.drive_record(log, limit, sw.record_samples(s, log)))
 
 
+def plant_mass(plant_scale=None):
+    """The robot's mass (kg) for c_mt when its plant is built with ``plant_scale`` (None: the
+    published robot's, :func:`metrics`' default)."""
+    return None if plant_scale is None else float(robot_mass(wk.walking_model(scale=tuple(plant_scale))))
+
+
 def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, sensing: str = "encoders",
          out=None, progress=None, lean_deg: float = 0.0, lean_steps: int = 20, plant: str = "stance",
-         loaded=None, ground: float = 1.0, cable: float = 1.0, friction: float = 1.0) -> dict:
+         loaded=None, ground: float = 1.0, cable: float = 1.0, friction: float = 1.0, plant_scale=None) -> dict:
     """Closed-loop walk; ``push``: (force N, step index) of a horizontal push on the hip over the
     second half of that step (:func:`parse_push` reads 'FORCE@STEP'), or None; ``lean_deg`` leans
     the torso forward (swing leg's absolute angle kept) in ``lean_steps`` equal increments, one
@@ -389,14 +404,18 @@ def walk(gait: str, controller: str, steps: int, push=None, eta: float = 1.0, se
     loaded it already. ``ground``: on the 13-DoF plant, its ground's stiffness and damping over
     the identified ground's (record key ``ground_scale``); ``cable``: its cables' stiffness and
     damping over the identified cables' (record key ``cable_scale``); ``friction``: its motors'
-    viscous friction over Table V's (record key ``friction_scale``)."""
+    viscous friction over Table V's (record key ``friction_scale``); ``plant_scale``: as
+    :func:`run_walk`'s (record key ``plant_scale``, its c_mt over the scaled robot's mass)."""
     force, step = (0.0, -1) if push is None else (float(push[0]), int(push[1]))
     loaded = load_gait(gait) if loaded is None else loaded
     s, log, rec = run_walk(gait, controller, steps, (force, step), eta, sensing, progress, lean_deg, lean_steps, plant,
-                           loaded=loaded, ground=ground, cable=cable, friction=friction)
+                           loaded=loaded, ground=ground, cable=cable, friction=friction, plant_scale=plant_scale)
     r = dict(robot="mabel", gait=gait, plant=plant, controller=controller, sensing=sensing, impact_scale=eta,
              torso_lean_deg=lean_deg, lean_steps=lean_steps if lean_deg else None,
-             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None, **metrics(s, log, loaded[1].limit))
+             push_force_n=force if step >= 0 else None, push_step=step if step >= 0 else None,
+             **metrics(s, log, loaded[1].limit, mass=plant_mass(plant_scale)))
+    if plant_scale is not None:
+        r["plant_scale"] = [list(x) for x in plant_scale]
     pc = rec.get("poincare") or {}
     key = "hzd" if controller != "pdff" else "pdff"
     r["max_abs_eigenvalue"] = pc.get(key, {}).get("max_abs_eigenvalue")
