@@ -214,3 +214,18 @@ def test_a_plant_built_with_other_values_is_data_of_one_walking_program():
     assert mass == pytest.approx(wm.robot_mass() + 0.1 * tb.LINKS["torso"][0], rel=1e-12)
     assert abs(heavy["speed_mps"] / const["speed_mps"] - 1.0) > 1e-3
     assert heavy["plant_scale"] == [["torso mass", 1.1]] and "plant_scale" not in const
+
+
+def test_the_restricted_maps_eigenvalues_are_named_by_modulus():
+    from bipedlab.robots.mabel.walking import catalog
+
+    assert catalog.by_magnitude([[0.1, 0.2], [0.8, 0.0], [-0.3, 0.0]]) == [0.8, -0.3, 0.1 + 0.2j]
+    assert catalog.by_magnitude(None) == []
+    # the design rows and the report's name the same ones: eq. 49's second is the real part of the second largest
+    rows = ws.design_quantities(type("D", (), dict(figures=dict(cmt=0.1, negative_work_fraction_spring=0.5,
+                                                                step_length=0.45)))(),
+                                dict(hzd=dict(max_abs_eigenvalue=0.8,
+                                              poincare_eigenvalues_complex=[[0.1, 0.2], [0.8, 0.0], [-0.3, 0.0]])),
+                                "nominal")
+    assert rows["nominal_eig_hzd_minor_1"] == -0.3 and rows["nominal_eig_hzd_minor_2"] == 0.1
+    assert mr._minor_eigenvalue(dict(eigenvalues_hzd=[[0.1, 0.2], [0.8, 0.0], [-0.3, 0.0]]), 2).value == 0.1

@@ -62,7 +62,7 @@ SCALABLE = {
 }
 
 
-def _factors(scale) -> dict:
+def factors(scale) -> dict:
     """{name: factor} of ``scale`` (pairs or a mapping), every name checked against SCALABLE."""
     f = dict(scale or ())
     unknown = sorted(set(f) - set(SCALABLE))
@@ -88,7 +88,7 @@ def _tree(f: dict):
 
 def link(kind: str, scale=()) -> tuple:
     """Table VII's (mass, COM, inertia about the joint) of link ``kind``, scaled by ``scale``."""
-    f = _factors(scale)
+    f = factors(scale)
     m, com, i_joint = tb.LINKS[kind]
     return (m * f.get(f"{kind} mass", 1.0), (com[0], com[1] * f.get(f"{kind} COM height", 1.0)),
             i_joint * f.get(f"{kind} inertia", 1.0))
@@ -175,7 +175,7 @@ class Drivetrain:
 
 def drivetrain(scale=()) -> Drivetrain:
     """The published drivetrain (``scale``: as :func:`hopping_model`'s)."""
-    k = _factors(scale)
+    k = factors(scale)
     f = lambda v, name=None: jnp.asarray(v, dtype=jnp.float64) * k.get(name, 1.0)  # noqa: E731
     per = lambda d, name=None: f([d[a] for a in tb.ACTUATORS], name)  # noqa: E731
     return Drivetrain(
@@ -216,7 +216,7 @@ def hopping_model(ground=None, drive=None, scale=()) -> Mabel:
     of :data:`SCALABLE` values built scaled (the drivetrain's only where ``drive`` is not given);
     the model's leaves change, its structure does not, so compiled programs taking the model as
     an argument serve every scaled one."""
-    f = _factors(scale)
+    f = factors(scale)
     w = np.zeros(13)
     w[1] = tb.BOOM["mass"] * f.get("boom mass", 1.0) * 9.81 * tb.BOOM["com"] / tb.BOOM["radius"]
     body = cp.coupled(_tree(f), _tree_map(), _rotors(f), COORDS_13, weight=w)

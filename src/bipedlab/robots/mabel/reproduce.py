@@ -949,7 +949,7 @@ def _minor_eigenvalue(design, k: int):
     ev = dig(design, "eigenvalues_hzd")
     if not ev or len(ev) <= k:
         return Skip("the design record holds no restricted-map eigenvalues")
-    ev = sorted((complex(re, im) for re, im in ev), key=abs, reverse=True)
+    ev = catalog.by_magnitude(ev)
     return Measured(ev[k].real, dict(abs=abs(ev[k]), im=ev[k].imag, dominant=abs(ev[0])))
 
 

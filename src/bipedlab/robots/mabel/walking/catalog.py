@@ -144,3 +144,9 @@ def experiment_steps_refusal(name: str, steps: int) -> str | None:
         return (f"--steps must be at least {STEADY_STEPS} (the steady speed is the mean of the last {STEADY_STEPS} "
                 f"steps), got {steps}")
     return None
+
+
+def by_magnitude(pairs) -> list:
+    """The eigenvalues a record stores as (re, im) pairs, as complex numbers, the largest modulus
+    first (the order in which the restricted map's dominant, second and third are named)."""
+    return sorted((complex(re, im) for re, im in pairs or ()), key=abs, reverse=True)

@@ -27,6 +27,7 @@ import numpy as np
 
 from bipedlab.report.spec import printed_precision, reach
 from bipedlab.robots.mabel import model as mm
+from bipedlab.robots.mabel.walking import catalog
 from bipedlab.robots.mabel.walking import design as md
 from bipedlab.robots.mabel.walking import stance as wk
 
@@ -66,14 +67,13 @@ def design_quantities(d, pc: dict, prefix: str) -> dict:
            f"{prefix}_eig_pdff": (pc.get("pdff") or {}).get("max_abs_eigenvalue")}
     if prefix == "nominal":
         out["nominal_step_length_m"] = float(f["step_length"])
-        ev = (pc.get("hzd") or {}).get("poincare_eigenvalues_complex") or []
-        ev = sorted((complex(re, im) for re, im in ev), key=abs, reverse=True)
+        ev = catalog.by_magnitude((pc.get("hzd") or {}).get("poincare_eigenvalues_complex"))
         for k in (1, 2):
             out[f"nominal_eig_hzd_minor_{k}"] = ev[k].real if len(ev) > k else None
     return out
 
 
-def redesign(scale: tuple = (), start=None, progress=None) -> tuple[dict, bool, dict]:
+def redesign(scale: tuple = (), start=None) -> tuple[dict, bool, dict]:
     """Both gaits designed again on the walking model built with ``scale`` (pairs (name,
     factor)): ({row: value}, every design converged, {gait prefix: decision vector}).
     ``start`` {prefix: decision vector}: each gait's warm start; None: the design experiment's
@@ -114,10 +114,7 @@ def sensitivity(step: float = 0.01, parameters=None, progress=None, redesign_fn=
     re-design (default :func:`redesign`; a stand-in for tests)."""
     say = progress or (lambda m: None)
     run = redesign_fn or redesign
-    names = list(mm.SCALABLE) if parameters is None else list(parameters)
-    unknown = [n for n in names if n not in mm.SCALABLE]
-    if unknown:
-        raise ValueError(f"unknown MABEL parameter(s) {', '.join(unknown)}; known: {', '.join(mm.SCALABLE)}")
+    names = list(mm.SCALABLE) if parameters is None else list(mm.factors({n: 1.0 for n in parameters}))
     t0 = time.perf_counter()
     say(f"mabel sensitivity: {len(names) + 1} re-designs of both gaits, each parameter x (1 + {step:g})")
     base, ok, start = run(())
@@ -216,10 +213,7 @@ def plant_sensitivity(step: float = 0.1, parameters=None, progress=None, rows_fn
     (default :func:`plant_rows`; a stand-in for tests)."""
     say = progress or (lambda m: None)
     run = rows_fn or (lambda scale: plant_rows(scale, progress=progress))
-    names = list(mm.SCALABLE) if parameters is None else list(parameters)
-    unknown = [n for n in names if n not in mm.SCALABLE]
-    if unknown:
-        raise ValueError(f"unknown MABEL parameter(s) {', '.join(unknown)}; known: {', '.join(mm.SCALABLE)}")
+    names = list(mm.SCALABLE) if parameters is None else list(mm.factors({n: 1.0 for n in parameters}))
     t0 = time.perf_counter()
     say(f"mabel plant sensitivity: {1 + len(REPLICAS) + len(names)} plants, each value x (1 {step:+g})")
     base = run(())
