@@ -229,3 +229,47 @@ def test_the_restricted_maps_eigenvalues_are_named_by_modulus():
                                 "nominal")
     assert rows["nominal_eig_hzd_minor_1"] == -0.3 and rows["nominal_eig_hzd_minor_2"] == 0.1
     assert mr._minor_eigenvalue(dict(eigenvalues_hzd=[[0.1, 0.2], [0.8, 0.0], [-0.3, 0.0]]), 2).value == 0.1
+
+
+def _linear_push(gait, controller, force, ref, steps, push_step=None, progress=None, plant="stance", plant_scale=None,
+                 direction=None):
+    """A 'walk' whose peak change is linear in the force, c = 0.003 p F (p: the torso mass factor),
+    back within 2 % after 4 steps forward and 2 backward."""
+    p = dict(plant_scale or ()).get("torso mass", 1.0)
+    return dict(speed_change=0.003 * p * force / ref, steps_to_recover=4 if force > 0 else 2, fell=False)
+
+
+def test_the_searched_forces_move_to_first_order_in_the_change_they_make(monkeypatch):
+    from bipedlab.robots.mabel.walking import experiments as wx
+
+    def search(controller, target, f0, ref, steps, progress=None, plant="stance", plant_scale=None):
+        f = target / 0.003  # the root of the linear change
+        return dict(force_n=f, speed_change=0.003 * f, converged=True, fell=False, steps_to_recover=4 if f > 0 else 2)
+
+    monkeypatch.setattr(wx, "push_at", _linear_push)
+    monkeypatch.setattr(wx, "search_push", search)
+    monkeypatch.setattr(ws, "_reference", lambda plant, scale, progress=None: 1.0)
+    base = ws.force_base()
+    assert set(base) == set(ws.FORCE_ROWS)
+    assert base["push_force_plus_45pct_n"]["slope"] == pytest.approx(0.003, rel=1e-9)
+    rows = ws.force_rows((), base)
+    for row, b in base.items():  # the published plant gives the searched force itself
+        assert rows[row] == b["force_n"] == pytest.approx(np.sign(wx.TARGET_CHANGES[ws.FORCE_ROWS[row][1]]) * 150.0)
+    assert [rows[k] for k in ws.FULL_RECOVERY_ROWS] == [4.0, 2.0, 2.0]
+    # a 10 % stronger response: the root moves to 136.4 N; first order from 150 N: 150 - 0.045 / 0.003 = 135 N
+    scaled = ws.force_rows((("torso mass", 1.1),), base)
+    assert scaled["push_force_plus_45pct_n"] == pytest.approx(135.0, rel=1e-12)
+    assert scaled["fullplant_push_force_minus_45pct_n"] == pytest.approx(-135.0, rel=1e-12)
+
+
+def test_the_plant_tier_runs_the_force_searches_once_and_every_plants_force_rows(monkeypatch):
+    calls = []
+    monkeypatch.setattr(ws, "plant_rows", lambda scale, progress=None: dict(a=2.0 * dict(scale).get("torso mass", 1.0)))
+    monkeypatch.setattr(ws, "force_base", lambda progress=None: calls.append("base") or dict(f=dict(force_n=100.0)))
+    monkeypatch.setattr(ws, "force_rows", lambda scale, base, progress=None: dict(
+        f=base["f"]["force_n"] * dict(scale).get("torso mass", 1.0) ** 3))
+    rec = ws.plant_sensitivity(step=0.1, parameters=["torso mass", "spring stiffness"])
+    assert calls == ["base"] and rec["searches"] == dict(f=dict(force_n=100.0))
+    e = rec["parameters"]["torso mass"]["elasticity"]
+    assert e["a"] == pytest.approx(1.0) and e["f"] == pytest.approx((1.1 ** 3 - 1) / 0.1)
+    assert rec["parameters"]["spring stiffness"]["elasticity"] == dict(a=0.0, f=0.0)

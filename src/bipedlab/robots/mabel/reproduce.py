@@ -389,7 +389,7 @@ HZD_EXPERIMENTS = (
               360, 10, _GAITS["full-plant"], gaits=["paper-nominal", "paper-efficient-clear"], variants=False),
     Experiment("sensitivity", "bipedlab experiment mabel sensitivity", _wx("sensitivity"), dict(steps=None), None,
                skip_reason="not run in --quick (both gaits designed again on 18 models, the walking experiments walked "
-               "again on 10 plants)", expected_s=2400,
+               "again on 10 plants)", expected_s=4000,
                gaits=_GAITS["sensitivity"]),
 )
 

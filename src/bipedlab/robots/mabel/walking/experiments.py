@@ -71,7 +71,7 @@ def _walk(gait, controller, steps, progress, **kw):
     return wm.walk(gait, controller, steps, progress=progress, **kw)
 
 
-def _mean_speed(r, first: int) -> float:
+def mean_speed(r, first: int) -> float:
     """A walk's mean step speed from step ``first`` on (the unpushed reference of a push)."""
     return float(np.mean(r["speed_per_step"][first:]))
 
@@ -106,6 +106,8 @@ SEARCH_WALKS = 10
 SEARCH_AFTER = 3
 #: recovery: steps after the pushed one until the step speed is back within 5 % of unpushed
 RECOVERY_TOL = 0.05
+#: a push's reference: the unpushed walk's mean step speed from this step on
+REFERENCE_FROM = 5
 
 
 def steps_to_settle(speeds, push_step, reference, tol=RECOVERY_TOL):
@@ -188,20 +190,35 @@ def _push_row(r, controller, force, push_step, ref, direction):
                 friction_cone_exceeded_step=r["friction_cone_exceeded_step"], toe_pulled_step=r["toe_pulled_step"])
 
 
+def push_at(gait, controller, force, ref, steps, push_step=PUSH_STEP, progress=None, plant="stance", plant_scale=None,
+            direction=None) -> dict:
+    """One walk of ``steps`` pushed with ``force`` (N) over the second half of ``push_step``:
+    its push record (the peak change in ``direction``, default the force's sign, against the
+    unpushed speed ``ref``; the recovery within RECOVERY_TOL; the toe's contact record) with
+    ``steps_to_recover``, the steps until first back within 2 % (None after a fall)."""
+    direction = np.sign(force) if direction is None else direction
+    r = _walk(gait, controller, steps, progress, push=(force, push_step), plant=plant, plant_scale=plant_scale)
+    row = _push_row(r, controller, force, push_step, ref, direction)
+    row["steps_to_recover"] = None if r["fell"] else _recovery(r["speed_per_step"], push_step, ref)[1]
+    return row
+
+
 def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progress=None, tol=SEARCH_TOL,
-                max_walks=SEARCH_WALKS, plant="stance", gait=GAIT):
+                max_walks=SEARCH_WALKS, plant="stance", gait=GAIT, plant_scale=None):
     """The force (N, + forward) over the second half of step ``push_step`` whose peak speed
     change is ``target`` (fraction of ``ref``) under ``controller`` on ``plant``, by
     :func:`bracket_force` on walks of the pushed step and SEARCH_AFTER more (a walk that falls
     counts as beyond the target unless the steps it completed already reached it); then one
     walk of ``steps`` at that force for the recovery (``steps_to_recover_5pct``, and
     ``steps_to_recover``: first back within 2 %, as the rows at the paper's forces). Returns the
-    search record. ``gait``: the gait walked (default :data:`GAIT`)."""
+    search record. ``gait``: the gait walked (default :data:`GAIT`); ``plant_scale``: the plant's
+    values (:func:`~bipedlab.robots.mabel.walking.study.run_walk`)."""
     direction = np.sign(target)
     seen = {}
 
     def change_of(force):
-        r = _walk(gait, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step), plant=plant)
+        r = _walk(gait, controller, push_step + 1 + SEARCH_AFTER, None, push=(force, push_step), plant=plant,
+                  plant_scale=plant_scale)
         c = peak_change(r["speed_per_step"], push_step, ref, direction)
         seen[float(force)] = (c, r["fell"], r["steps_completed"])
         # a walk that falls short of the target before its fall tells nothing of the change the
@@ -209,16 +226,14 @@ def search_push(controller, target, f0, ref, steps, push_step=PUSH_STEP, progres
         return None if r["fell"] and (c is None or abs(c - target) > tol) else c
 
     force, change, walks, ok = bracket_force(change_of, target, f0, tol, max_walks)
-    r = _walk(gait, controller, steps, progress, push=(force, push_step), plant=plant)
-    row = _push_row(r, controller, force, push_step, ref, direction)
-    row["steps_to_recover"] = None if r["fell"] else _recovery(r["speed_per_step"], push_step, ref)[1]
+    row = push_at(gait, controller, force, ref, steps, push_step, progress, plant, plant_scale, direction)
     return dict(target_change=target, converged=ok, tolerance=tol, walks=[
         dict(force_n=f, speed_change=seen[f][0], fell=seen[f][1], steps_completed=seen[f][2]) for f, _ in walks],
         **row)
 
 
 def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decentralized"), search=True,
-         reference_from=5, full_plant=True, gait_factor=FACTOR_GAITS):
+         reference_from=REFERENCE_FROM, full_plant=True, gait_factor=FACTOR_GAITS, plant_scale=None):
     """Exp. 2. The forces that change the speed by TARGET_CHANGES (+45 % / -45 %, as the paper's
     pushes did on the robot) over the second half of step PUSH_STEP, searched from the paper's
     estimates under PD + feedforward, the experiment's controller (``force_for_plus_45pct_n``,
@@ -248,14 +263,16 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
 
     With ``search``, the PD + feedforward searches again on each of ``gait_factor`` (default
     :data:`FACTOR_GAITS`; record ``gait_factor``, :func:`push_on_gait`): the gait as a factor of
-    the forces and the recovery."""
+    the forces and the recovery. ``plant_scale``: the stance and 13-DoF plants' values
+    (:func:`~bipedlab.robots.mabel.walking.study.run_walk`; the factor gaits' searches keep the
+    published ones)."""
     if search and set(controllers) != {"pdff", "decentralized"}:
         raise ValueError("push: the force searches walk both PD + feedforward and the decentralised controller")
     steps = steps or 30
     refs = {}
     for controller in controllers:
-        base = _walk(GAIT, controller, steps, progress)
-        refs[controller] = _mean_speed(base, reference_from)
+        base = _walk(GAIT, controller, steps, progress, plant_scale=plant_scale)
+        refs[controller] = mean_speed(base, reference_from)
     paper = dict(controller="pdff", forward=dict(force_n=78, speed_change=0.45, steps_to_recover=10),
                  backward=dict(force_n=-71, speed_change=-0.45, steps_to_recover=3))
     runs = []
@@ -265,7 +282,7 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
         ref = refs[controller]
         for force in pushes:
             r = _walk(GAIT, controller, steps, progress, push=(force, push_step),
-                      out=f"{out}/{controller}_{force:+.0f}N" if out else None)
+                      out=f"{out}/{controller}_{force:+.0f}N" if out else None, plant_scale=plant_scale)
             row = _push_row(r, controller, force, push_step, ref, np.sign(force))
             peak, back = _recovery(r["speed_per_step"], push_step, ref)
             # and as before: the largest change either way, the steps until first back within 2 %
@@ -280,30 +297,31 @@ def push(steps, progress, out, push_step=PUSH_STEP, controllers=("pdff", "decent
     for controller, starts in (("pdff", PUSHES), ("decentralized", HZD_PUSHES)):
         for target, f0 in zip(TARGET_CHANGES, starts):
             say(f"push: searching the force for {100 * target:+.0f} % under {controller}")
-            searches.append(search_push(controller, target, f0, refs[controller], steps, push_step, progress))
+            searches.append(search_push(controller, target, f0, refs[controller], steps, push_step, progress,
+                                        plant_scale=plant_scale))
     plus, minus = searches[:2]
     at_pdff = []
     for x in (plus, minus):
-        r = _walk(GAIT, "decentralized", steps, progress, push=(x["force_n"], push_step))
+        r = _walk(GAIT, "decentralized", steps, progress, push=(x["force_n"], push_step), plant_scale=plant_scale)
         at_pdff.append(dict(_push_row(r, "decentralized", x["force_n"], push_step, refs["decentralized"],
                                       np.sign(x["target_change"])), target_change=x["target_change"]))
     rec.update(force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"],
                speed_change_at_plus_force=plus["speed_change"], speed_change_at_minus_force=minus["speed_change"],
                searches=searches, at_pdff_forces=at_pdff)
     if full_plant:
-        rec["full_plant"] = push_full_plant(steps, push_step, reference_from, progress)
+        rec["full_plant"] = push_full_plant(steps, push_step, reference_from, progress, plant_scale=plant_scale)
     rec["gait_factor"] = [push_on_gait(g, steps, push_step, reference_from, progress) for g in gait_factor]
     return rec
 
 
-def push_on_gait(gait, steps, push_step=PUSH_STEP, reference_from=5, progress=None) -> dict:
+def push_on_gait(gait, steps, push_step=PUSH_STEP, reference_from=REFERENCE_FROM, progress=None) -> dict:
     """Exp. 2's two PD + feedforward force searches (stance model, encoders) on ``gait``: its
     unpushed speed and mean step (steps ``reference_from`` on), the forces for +45 % and -45 %,
     the changes reached and the steps until back within 2 % (``steps_to_recover``) and within
     RECOVERY_TOL for good (``steps_to_recover_5pct``)."""
     say = progress or (lambda msg: None)
     base = _walk(gait, "pdff", steps, progress)
-    ref = _mean_speed(base, reference_from)
+    ref = mean_speed(base, reference_from)
     out = dict(gait=gait, unpushed_speed_mps=ref, step_length_m=float(np.mean(base["step_lengths_m"][reference_from:])))
     for target, f0, sign in zip(TARGET_CHANGES, PUSHES, ("plus", "minus")):
         say(f"push: searching the force for {100 * target:+.0f} % under pdff on {gait}")
@@ -314,18 +332,19 @@ def push_on_gait(gait, steps, push_step=PUSH_STEP, reference_from=5, progress=No
     return out
 
 
-def push_full_plant(steps, push_step=PUSH_STEP, reference_from=5, progress=None) -> dict:
+def push_full_plant(steps, push_step=PUSH_STEP, reference_from=REFERENCE_FROM, progress=None, plant_scale=None) -> dict:
     """Exp. 2 on the 13-DoF plant under PD + feedforward: the unpushed speed (mean over steps
     ``reference_from`` on of a ``steps`` walk), and the forces that change it by TARGET_CHANGES,
     searched from the paper's forces PUSHES (its estimates for its own model), each with its
-    recovery."""
-    base = _walk(GAIT, "pdff", steps, progress, plant="full")
-    ref = _mean_speed(base, reference_from)
+    recovery. ``plant_scale``: the plant's values (:func:`~bipedlab.robots.mabel.walking.study.run_walk`)."""
+    base = _walk(GAIT, "pdff", steps, progress, plant="full", plant_scale=plant_scale)
+    ref = mean_speed(base, reference_from)
     say = progress or (lambda msg: None)
     searches = []
     for target, f0 in zip(TARGET_CHANGES, PUSHES):
         say(f"push: searching the force for {100 * target:+.0f} % under pdff on the 13-DoF plant")
-        searches.append(search_push("pdff", target, f0, ref, steps, push_step, progress, plant="full"))
+        searches.append(search_push("pdff", target, f0, ref, steps, push_step, progress, plant="full",
+                                    plant_scale=plant_scale))
     plus, minus = searches
     return dict(controller="pdff", unpushed_speed_mps=ref, unpushed_fell=base["fell"],
                 force_for_plus_45pct_n=plus["force_n"], force_for_minus_45pct_n=minus["force_n"], searches=searches)
@@ -793,7 +812,7 @@ def eps_selection(gait=HEADLINE_JUDGED, steps=EPS_STEPS, controllers=HEADLINE_CO
     return out
 
 
-def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, variants=True):
+def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, variants=True, plant_scale=None):
     """The design-to-robot gap (Sections V-A, V-C, VI-C): each gait under PD + feedforward on
     encoders at 1 kHz on the 13-DoF plant (:mod:`.full_plant`), beside its designed c_mt; Fig.
     20 for the first gait when ``out`` is given. The headline comparison (Sec. V-D): each gait
@@ -809,19 +828,22 @@ def full_plant(steps, progress, out, gaits=GAP_GAITS, headline=HEADLINE_GAITS, v
     1's walk with those cables and with FRICTION_SCALE times the motor friction
     (``cmt_factor_runs``: ``cables``, ``friction``), and
     :func:`eps_selection` (``eps_selection``), whose walks at one eps on every output are the
-    headline's figures before eq. 42's eps was chosen per output."""
+    headline's figures before eq. 42's eps was chosen per output. ``plant_scale``: the plant's
+    values (:func:`~bipedlab.robots.mabel.walking.study.run_walk`) for every walk but the eps
+    selection's."""
     runs, hzd = {}, {}
     n = steps or 100
 
     def walk(g, c, **kw):
         if progress:
             progress(f"{g} under {c} on the 13-DoF plant" + "".join(f", {k} {v}" for k, v in kw.items()))
-        return wm.walk(g, c, n, plant="full", **kw)
+        return wm.walk(g, c, n, plant="full", plant_scale=plant_scale, **kw)
 
     for k, g in enumerate(gaits):
         if progress:
             progress(f"{g} on the 13-DoF plant")
-        runs[g] = wm.walk(g, "pdff", n, plant="full", out=f"{out}/{g}" if out and k == 0 else None)
+        runs[g] = wm.walk(g, "pdff", n, plant="full", out=f"{out}/{g}" if out and k == 0 else None,
+                          plant_scale=plant_scale)
     for g in headline:
         hzd[g] = {c: _headline_run(runs.get(g) if c == "pdff" and g in runs else walk(g, c))
                   for c in ("pdff",) + HEADLINE_CONTROLLERS}

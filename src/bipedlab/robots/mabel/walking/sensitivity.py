@@ -169,7 +169,12 @@ def _table(rec: dict) -> list:
 #: the walks its rows come from (reproduce's full run) and leave out those that feed none
 PLANT_RUNS = {"nominal": {}, "efficient": {}, "tracking": dict(controllers=["pdff", "iolin"], causes=False),
               "exp4": dict(compare=False), "impact-scaling": dict(pdff_column=False, gait_factor=[]),
-              "fast": dict(comparisons=False)}
+              "fast": dict(comparisons=False), "push": dict(controllers=["pdff"], search=False),
+              "full-plant": dict(gaits=["paper-nominal", "paper-efficient-clear"], headline=["paper-575"],
+                                 variants=False)}
+#: rows those reduced runs give otherwise than the full run (the fewest steps over every
+#: headline gait: the plant tier walks the judged one only)
+NOT_PLANT_ROWS = ("fullplant_hzd_steps",)
 
 
 def plant_rows(scale: tuple = (), runs=None, progress=None) -> dict:
@@ -188,8 +193,75 @@ def plant_rows(scale: tuple = (), runs=None, progress=None) -> dict:
     rows = {}
     for k, v in out.items():
         v = getattr(v, "value", v)
-        if is_number(v):
+        if is_number(v) and k not in NOT_PLANT_ROWS:
             rows[k] = float(v)
+    return rows
+
+
+#: Exp. 2's force rows: row -> (plant, index into the experiment's TARGET_CHANGES and PUSHES)
+FORCE_ROWS = {"push_force_plus_45pct_n": ("stance", 0), "push_force_minus_45pct_n": ("stance", 1),
+              "fullplant_push_force_plus_45pct_n": ("full", 0), "fullplant_push_force_minus_45pct_n": ("full", 1)}
+#: the 13-DoF recovery rows read from the walks at the searched forces (report.FULL_PUSH_ROWS)
+FULL_RECOVERY_ROWS = ("fullplant_push_forward_steps", "fullplant_push_backward_steps", "fullplant_push_recovery_asymmetry")
+#: relative force step of the change's slope at a searched force
+FORCE_STEP = 0.02
+#: Exp. 2's walks (steps; experiment push's default)
+PUSH_WALK = 30
+
+
+def force_base(progress=None) -> dict:
+    """Exp. 2's PD + feedforward force searches (stance model and 13-DoF plant) on the
+    published plant as data (``plant_scale`` ()): per row of :data:`FORCE_ROWS`, the force F*,
+    the peak speed change c* its walk reached, the slope dc/dF there (a second walk at
+    F* (1 + FORCE_STEP)) and the walk's recovery (``steps_to_recover``)."""
+    from bipedlab.robots.mabel.walking import experiments as wx
+
+    out, refs = {}, {}
+    for row, (plant, i) in FORCE_ROWS.items():
+        if plant not in refs:
+            refs[plant] = _reference(plant, (), progress)
+        x = wx.search_push("pdff", wx.TARGET_CHANGES[i], wx.PUSHES[i], refs[plant], PUSH_WALK, progress=progress,
+                           plant=plant, plant_scale=())
+        f = x["force_n"]
+        y = wx.push_at(wx.GAIT, "pdff", f * (1.0 + FORCE_STEP), refs[plant], PUSH_WALK, progress=progress, plant=plant,
+                       plant_scale=(), direction=np.sign(wx.TARGET_CHANGES[i]))
+        slope = (None if x["speed_change"] is None or y["speed_change"] is None
+                 else (y["speed_change"] - x["speed_change"]) / (FORCE_STEP * f))
+        out[row] = dict(plant=plant, force_n=f, change=x["speed_change"], slope=slope, converged=x["converged"],
+                        steps_to_recover=x["steps_to_recover"], fell=x["fell"])
+    return out
+
+
+def _reference(plant: str, scale: tuple, progress=None) -> float:
+    from bipedlab.robots.mabel.walking import experiments as wx
+    from bipedlab.robots.mabel.walking import study as wm
+
+    r = wm.walk(wx.GAIT, "pdff", PUSH_WALK, plant=plant, plant_scale=tuple(scale), progress=progress)
+    return wx.mean_speed(r, wx.REFERENCE_FROM)
+
+
+def force_rows(scale: tuple, base: dict, progress=None) -> dict:
+    """The force rows on a plant built with ``scale``, to first order from the searches on the
+    published one (``base``, :func:`force_base`): F* - (c(F*) - c*) / (dc/dF), c(F*) the change
+    the searched force makes on this plant (against its own unpushed speed), so the published
+    plant gives F* exactly; and the 13-DoF recovery rows from those walks (at the published
+    plant's forces)."""
+    from bipedlab.robots.mabel.walking import experiments as wx
+
+    rows, refs, back = {}, {}, {}
+    for row, b in base.items():
+        plant = b["plant"]
+        if plant not in refs:
+            refs[plant] = _reference(plant, scale, progress)
+        x = wx.push_at(wx.GAIT, "pdff", b["force_n"], refs[plant], PUSH_WALK, progress=progress, plant=plant,
+                       plant_scale=tuple(scale))
+        if x["speed_change"] is not None and b["change"] is not None and b["slope"]:
+            rows[row] = b["force_n"] - (x["speed_change"] - b["change"]) / b["slope"]
+        if plant == "full" and x["steps_to_recover"] is not None:
+            back[FULL_RECOVERY_ROWS[FORCE_ROWS[row][1]]] = x["steps_to_recover"]
+    rows.update({k: float(v) for k, v in back.items()})
+    if len(back) == 2:
+        rows[FULL_RECOVERY_ROWS[2]] = float(back[FULL_RECOVERY_ROWS[0]] - back[FULL_RECOVERY_ROWS[1]])
     return rows
 
 
@@ -210,9 +282,19 @@ def plant_sensitivity(step: float = 0.1, parameters=None, progress=None, rows_fn
     of ``step``: the common record format (:func:`sensitivity`'s) with ``standard_error``
     {row: s.e. of the elasticity} from the rows' noise: the s.d. over the base and its rounding
     :data:`REPLICAS`, times sqrt(2) / (step |base|). ``rows_fn(scale)``: the rows of a plant
-    (default :func:`plant_rows`; a stand-in for tests)."""
+    (default :func:`plant_rows` and :func:`force_rows`, the searches of :func:`force_base` run
+    once, on the first plant; record key ``searches``; a stand-in for tests)."""
     say = progress or (lambda m: None)
-    run = rows_fn or (lambda scale: plant_rows(scale, progress=progress))
+    searches = {}
+
+    def rows_of(scale):
+        rows = plant_rows(scale, progress=progress)
+        if not searches:
+            searches.update(force_base(progress))
+        rows.update(force_rows(scale, searches, progress))
+        return rows
+
+    run = rows_fn or rows_of
     names = list(mm.SCALABLE) if parameters is None else list(mm.factors({n: 1.0 for n in parameters}))
     t0 = time.perf_counter()
     say(f"mabel plant sensitivity: {1 + len(REPLICAS) + len(names)} plants, each value x (1 {step:+g})")
@@ -229,11 +311,11 @@ def plant_sensitivity(step: float = 0.1, parameters=None, progress=None, rows_fn
         scaled = run(((name, 1.0 + step),))
         e = _elasticity(scaled, base, step, True)
         se = {k: (None if e[k] is None or noise.get(k) is None else float(np.sqrt(2.0) * noise[k] / abs(step * base[k])))
-              for k in base}
+              for k in base}  # e[k] is None where base[k] is 0
         rows[name] = dict(source=mm.SCALABLE[name], printed=PRINTED[name], precision=precision(name), elasticity=e,
                           standard_error=se, scaled=scaled)
     return dict(step=step, method=(
         f"forward differences: each value x (1 {step:+g}) in the plant alone (the controllers keep the published "
-        f"model), the experiments' row walks again; standard errors from {len(REPLICAS)} rounding replicas of the "
-        "unscaled plant"), precision_source=PRECISION_SOURCE, base=base, noise=noise, parameters=rows,
-        walks_per_plant=len(PLANT_RUNS), wall_time_s=time.perf_counter() - t0)
+        f"model), the experiments' row walks again (Exp. 2's searched forces to first order: the change each force "
+        f"makes, over its slope); standard errors from {len(REPLICAS)} rounding replicas of the unscaled plant"), precision_source=PRECISION_SOURCE, base=base, noise=noise, parameters=rows,
+        experiments_per_plant=len(PLANT_RUNS), searches=searches or None, wall_time_s=time.perf_counter() - t0)
