@@ -102,7 +102,8 @@ def rows_for(paper: Paper, records: dict, quick: bool) -> list:
                 why = f"self-check not met: {why}"
         else:
             why = reason
-        closed = values.closing(v, r["paper"], sensitivity) if word == "departs" and sensitivity else None
+        closed = (values.closing(v, values.closing_target(r["paper"], tol, v), sensitivity)
+                  if word == "departs" and sensitivity else None)
         if closed is not None:
             why = f"{why} {values.closing_text(closed)}"
         out.append(dict(id=r["id"], quantity=r["quantity"], paper=r["paper"], unit=unit, source=r["source"],

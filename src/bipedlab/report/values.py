@@ -160,6 +160,19 @@ def closing(value, paper, sensitivity) -> dict | None:
                 source=sensitivity.source, method=sensitivity.method)
 
 
+def closing_target(paper, tolerance: dict, value):
+    """The number a departing row's closing aims at (:func:`closing`'s ``paper``): the paper's
+    number where it prints one; where it gives text with a band (a range, e.g. a ratio of two
+    printed numbers), the band's bound nearer the value (the smallest change that makes it
+    agree); else None (nothing to close to)."""
+    if is_number(paper):
+        return paper
+    if tolerance.get("kind") == "range" and is_number(value):
+        lo, hi = tolerance["value"]
+        return lo if value < lo else hi if value > hi else None
+    return None
+
+
 def closing_text(c: dict) -> str:
     """One sentence of :func:`closing`'s outcome, for a departing row's text."""
     def one(b):

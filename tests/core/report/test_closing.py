@@ -103,3 +103,14 @@ def test_a_departing_row_carries_its_closing_and_the_counts_sort_the_departures(
     assert "3 depart (1 within model uncertainty, 1 implementation or setup, 1 not sorted)" in line
     on_disk = json.loads((tmp_path / "out" / "report.json").read_text())["papers"]["toy"]
     assert on_disk["counts"] == p["counts"]
+
+
+def test_a_paper_given_as_text_with_a_band_is_closed_to_the_bands_nearer_bound():
+    band = dict(kind="range", value=[3.21, 3.43], derivation="precision", why="a ratio of two printed numbers")
+    assert values.closing_target("0.15 / 0.0452 = 3.3", band, 2.3) == 3.21
+    assert values.closing_target("0.15 / 0.0452 = 3.3", band, 4.0) == 3.43
+    assert values.closing_target("0.15 / 0.0452 = 3.3", band, 3.3) is None  # inside: nothing to close
+    assert values.closing_target(0.8, dict(kind="rel", value=0.02), 0.5) == 0.8  # a printed number is the target
+    assert values.closing_target("faster", dict(kind="claim"), 0.5) is None
+    c = values.closing(2.3, values.closing_target("3.3", band, 2.3), SENS)
+    assert c["needed"] == pytest.approx(3.21 / 2.3 - 1.0, rel=1e-12)
