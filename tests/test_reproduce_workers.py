@@ -18,6 +18,21 @@ def test_makespan_is_the_longest_worker_under_longest_first_dealing():
     assert [g[0] for g in workers.deal([("a", 1.0, []), ("b", 9.0, []), ("c", 4.0, [])])] == ["b", "c", "a"]
 
 
+def test_an_experiment_longer_than_the_rest_of_its_paper_is_a_unit_of_its_own():
+    from bipedlab.report.runner import work_groups
+
+    todo = [("hzd", "design", 300.0), ("hzd", "push", 500.0), ("hzd", "sensitivity", 4000.0),
+            ("identification", "identify", 100.0), ("identification", "hop", 100.0)]
+    groups = work_groups(todo)
+    assert groups == [("hzd", 4000.0, ["sensitivity"]), ("hzd", 800.0, ["design", "push"]),
+                      ("identification", 200.0, ["identify", "hop"])]
+    # two workers: the long experiment beside the rest, instead of after it
+    assert workers.makespan([x for _, x, _ in groups], 2) == pytest.approx(4000.0)
+    # no experiment longer than the rest: the paper is one unit, in order; a lone experiment too
+    assert work_groups([("a", "x", 2.0), ("a", "y", 2.0)]) == [("a", 4.0, ["x", "y"])]
+    assert work_groups([("a", "x", 9.0)]) == [("a", 9.0, ["x"])]
+
+
 def test_a_worker_that_dies_is_an_error_not_a_hang():
     seen = []
     t0 = time.monotonic()

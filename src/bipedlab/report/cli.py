@@ -35,8 +35,8 @@ def _arguments(p) -> None:
     p.add_argument("--rerun", action="store_true", help="run every experiment again instead of reusing stored results")
     p.add_argument("--list", action="store_true", help="list the papers and their experiments, run nothing")
     p.add_argument("--jobs", type=int_in(1, 64), default=None,
-                   help="worker processes that run papers side by side (default: one per core; 1 runs everything "
-                        "in this process)")
+                   help="worker processes that run papers side by side, an experiment longer than the rest of its "
+                        "paper in a worker of its own (default: one per core; 1 runs everything in this process)")
     p.add_argument("--only", type=text, action="append", default=None, metavar="PAPER/EXPERIMENT",
                    help=argparse.SUPPRESS)
     p.add_argument("--check", action="store_true",

@@ -278,8 +278,9 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
             only: Optional[set] = None, jobs: int = 1, run_id: Optional[str] = None) -> dict:
     """Run every experiment of ``papers``: {paper key: [Result, ...]} (skipped ones included).
     ``only``: names "paper/experiment" to run (the others are reported as not run). ``jobs`` > 1
-    runs the papers side by side in that many worker processes (:mod:`bipedlab.report.workers`)
-    when more than one paper has work to do; otherwise everything runs in this process.
+    runs the papers side by side in that many worker processes (:mod:`bipedlab.report.workers`;
+    the units :func:`work_groups`) when more than one unit has work to do; otherwise everything
+    runs in this process.
     ``run_id`` marks the entries this run stores; with ``use_cache=False`` the entries it
     stored before an interruption are still reused (see :func:`run_experiment`)."""
     from bipedlab.report import workers
@@ -288,10 +289,9 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
     steps = [(p, e, x) for p, e, x in plan(papers, quick) if only is None or f"{p.key}/{e.name}" in only]
     cached = {(p.key, e.name): root_has(p, e, quick, use_cache, run_id) for p, e, _ in steps}
     steps_expected = [(p, e, 1.0 if cached[(p.key, e.name)] else x) for p, e, x in steps]
-    busy = {p.key: sum(x for q, e, x in steps_expected if q is p and not cached[(p.key, e.name)]) for p in papers}
-    jobs = max(1, min(int(jobs), sum(1 for v in busy.values() if v > 0)))
-    prog = Progress(steps_expected, say, jobs=jobs,
-                    wall_expected=workers.makespan([sum(x for q, _, x in steps_expected if q is p) for p in papers], jobs))
+    groups = work_groups([(p.key, e.name, x) for p, e, x in steps_expected])
+    jobs = max(1, min(int(jobs), sum(1 for key, _, names in groups if not all(cached[(key, n)] for n in names))))
+    prog = Progress(steps_expected, say, jobs=jobs, wall_expected=workers.makespan([x for _, x, _ in groups], jobs))
     if not all(cached.values()):
         say(f"reproducing {len(papers)} paper(s), {len(steps)} experiment(s)"
             f"{' (--quick)' if quick else ''}{f' in {jobs} processes' if jobs > 1 else ''}: expected duration "
@@ -313,8 +313,6 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
         done[(key, name)] = r
 
     if jobs > 1:
-        groups = [(p.key, busy[p.key], [e.name for q, e, _ in steps if q is p]) for p in papers
-                  if any(q is p for q, _, _ in steps)]
         workers.run(groups, quick, use_cache, jobs, on_start=started, run_id=run_id,
                     on_say=lambda label, msg: prog.inner(label)(msg), on_done=finished)
     else:
@@ -332,6 +330,27 @@ def run_all(papers: list, quick: bool, say: Callable[[str], None], use_cache: bo
             r.skipped = e.skip_reason if e.args(quick) is None else "not selected in this run"
             results[p.key].append(r)
     return results
+
+
+def work_groups(todo: list) -> list:
+    """The units of work of a run side by side: [(paper key, expected seconds, [experiment
+    names])] from ``todo`` [(paper key, experiment name, expected seconds to compute)], one per
+    paper (its experiments share a process's compiled programs), except an experiment expected
+    to take longer than the rest of its paper together, which is a unit of its own (so that a
+    paper with one long experiment runs beside itself)."""
+    by: dict = {}
+    for key, name, x in todo:
+        by.setdefault(key, []).append((name, x))
+    out = []
+    for key, items in by.items():
+        total = sum(x for _, x in items)
+        long = [(n, x) for n, x in items if len(items) > 1 and x > total - x]
+        for n, x in long:
+            out.append((key, x, [n]))
+        rest = [(n, x) for n, x in items if (n, x) not in long]
+        if rest:
+            out.append((key, sum(x for _, x in rest), [n for n, _ in rest]))
+    return out
 
 
 def root_has(paper: Paper, exp: Experiment, quick: bool, use_cache: bool = True, run_id: Optional[str] = None) -> bool:

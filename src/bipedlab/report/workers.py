@@ -3,8 +3,9 @@
 Compiling dominates a first run, and XLA compiles one program on one core, so a two-core CPU
 finishes two papers side by side in about the time of the longer one. The unit of work is a
 paper: its experiments run in one worker process, in order, sharing that process's compiled
-programs (a paper's walks reuse one compiled loop) and the persistent compilation cache. The
-papers are dealt to the workers longest first (by their expected times), each worker takes the
+programs (a paper's walks reuse one compiled loop) and the persistent compilation cache; an
+experiment expected to take longer than the rest of its paper together is a unit of its own
+(:func:`bipedlab.report.runner.work_groups`). The units are dealt to the workers longest first (by their expected times), each worker takes the
 next paper when it is free, and every message goes back to the parent, which keeps the one
 progress display.
 
